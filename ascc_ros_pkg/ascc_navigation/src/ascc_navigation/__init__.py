@@ -1,0 +1,1 @@
+"""Mapping (RBPF), localization (MCL) and navigation (grid planner + controller) stand-ins."""

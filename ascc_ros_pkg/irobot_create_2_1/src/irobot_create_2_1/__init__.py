@@ -1,0 +1,1 @@
+"""iRobot Create (first generation) Open Interface: protocol, odometry, virtual Create."""
