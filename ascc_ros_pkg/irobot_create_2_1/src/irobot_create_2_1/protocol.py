@@ -5,8 +5,10 @@ Values here are the Open Interface's raw integers (mm, mm/s, degrees, mV, mA, mA
 conversion to SI happens at the ROS boundary (``units.py`` / the driver).
 All multi-byte values are big-endian; signed ones are two's complement.
 """
+import functools
+import struct
 from collections import namedtuple
-from typing import Dict, Iterable, List, Mapping, Sequence, Tuple
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 # --- opcodes (OI spec, "Open Interface Command Reference") -----------------------------
 START = 128
@@ -167,19 +169,23 @@ def decode_value(packet_id: int, data: bytes) -> int:
     return int.from_bytes(bytes(data), "big", signed=spec.signed)
 
 
+_STRUCT_CODES = {(1, False): "B", (1, True): "b", (2, False): "H", (2, True): "h"}
+
+
+@functools.lru_cache(maxsize=64)
+def _layout(packet_ids: Tuple[int, ...]) -> Tuple[Tuple[int, ...], struct.Struct]:
+    ids = tuple(pid for requested in packet_ids for pid in expand(requested))
+    fmt = ">" + "".join(_STRUCT_CODES[PACKETS[pid].size, PACKETS[pid].signed] for pid in ids)
+    return ids, struct.Struct(fmt)
+
+
 def decode_packets(packet_ids: Iterable[int], data: bytes) -> Dict[int, int]:
     """Decode the reply to Sensors/Query List: the packets' data back to back, no ids."""
-    ids = [pid for requested in packet_ids for pid in expand(requested)]
-    expected = sum(PACKETS[pid].size for pid in ids)
-    if len(data) != expected:
-        raise ValueError("reply for packets %s needs %d bytes, got %d" % (ids, expected, len(data)))
-    out: Dict[int, int] = {}
-    pos = 0
-    for pid in ids:
-        size = PACKETS[pid].size
-        out[pid] = decode_value(pid, data[pos:pos + size])
-        pos += size
-    return out
+    ids, layout = _layout(tuple(packet_ids))
+    if len(data) != layout.size:
+        raise ValueError("reply for packets %s needs %d bytes, got %d"
+                         % (list(ids), layout.size, len(data)))
+    return dict(zip(ids, layout.unpack(bytes(data))))
 
 
 # --- stream framing -------------------------------------------------------------------
@@ -237,12 +243,18 @@ class StreamParser:
 
     ``feed`` accepts any chunking of the byte stream and returns the frames completed by
     it. A frame with a bad checksum or an undecodable body is dropped and counted, and the
-    search for the next header restarts one byte after the bad frame's header, so a stray
-    19 in garbage costs at most one frame.
+    search for the next header restarts one byte after the bad frame's header.
+
+    ``packet_ids``: the ids requested with Stream (148). When given, a header whose length
+    byte does not match that request is rejected at once, so a stray 19 in garbage (or a
+    packet id 19 inside a frame) cannot make the parser wait for up to 255 bytes.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, packet_ids: Optional[Sequence[int]] = None) -> None:
         self._buf = bytearray()
+        self.body_len: Optional[int] = None
+        if packet_ids is not None:
+            self.body_len = sum(1 + packet_size(pid) for pid in packet_ids)
         self.frames_ok = 0
         self.bad_checksum = 0
         self.bad_body = 0
@@ -263,6 +275,11 @@ class StreamParser:
                 del buf[:start]
             if len(buf) < 2:
                 break
+            if self.body_len is not None and buf[1] != self.body_len:
+                self.bad_body += 1
+                self.dropped_bytes += 1
+                del buf[:1]
+                continue
             total = buf[1] + 3
             if len(buf) < total:
                 break

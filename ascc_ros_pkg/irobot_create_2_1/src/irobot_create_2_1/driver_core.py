@@ -1,0 +1,131 @@
+"""The driver's logic without ROS: start-up sequence, stream decoding, odometry, motion
+commands with a watchdog, saturation and bump safety. The node feeds it bytes and times
+(ROS time, so simulated time works) and writes the bytes it returns to the port."""
+import math
+from typing import Dict, List, Optional, Tuple
+
+from . import kinematics, protocol
+from .odometry import Odometry
+from .sensor_state import hazards, increments_si
+
+#: Packets the driver streams: group 6 = every packet 7..42 (52 data bytes per frame).
+STREAM_PACKETS = (6,)
+
+
+class CreateDriverCore:
+    def __init__(self, wheel_base_m: float = 0.258, mode: str = "safe",
+                 cmd_timeout_s: float = 0.5, stop_on_bump: bool = True,
+                 max_wheel_speed_m_s: float = 0.5, resend_period_s: float = 0.5,
+                 odometry: Optional[Odometry] = None):
+        if mode not in ("safe", "full"):
+            raise ValueError("mode must be 'safe' or 'full', got %r" % (mode,))
+        if cmd_timeout_s <= 0:
+            raise ValueError("cmd_timeout_s must be > 0, got %r" % (cmd_timeout_s,))
+        self.wheel_base_m = wheel_base_m
+        self.mode = mode
+        self.cmd_timeout_s = cmd_timeout_s
+        self.stop_on_bump = stop_on_bump
+        self.max_wheel_speed_m_s = max_wheel_speed_m_s
+        self.resend_period_s = resend_period_s
+        self.parser = protocol.StreamParser(STREAM_PACKETS)
+        self.odom = odometry or Odometry()
+        self.values: Dict[int, int] = {}
+        self.last_frame_time: Optional[float] = None
+        # commanded body twist and when it came (None: never)
+        self._twist: Tuple[float, float] = (0.0, 0.0)
+        self._cmd_time: Optional[float] = None
+        self._sent: Optional[Tuple[int, int]] = None
+        self._sent_time = -math.inf
+        self.watchdog_stops = 0
+        self.bump_stops = 0
+        self.rejected_cmds = 0
+        self.saturated_cmds = 0
+
+    # --- start-up -------------------------------------------------------------------
+    def init_sequence(self) -> bytes:
+        """Bytes that wake the robot, pick the mode and start the sensor stream. Sent on
+        every (re)connection; the wheels start stopped."""
+        self._sent = None
+        mode = protocol.safe() if self.mode == "safe" else protocol.full()
+        return (protocol.start() + mode + protocol.drive_direct(0, 0)
+                + protocol.stream(STREAM_PACKETS))
+
+    # --- sensors --------------------------------------------------------------------
+    def on_bytes(self, data: bytes, now: float) -> List[Dict[int, int]]:
+        """Feed bytes from the robot; complete frames update odometry and the state."""
+        frames = self.parser.feed(data)
+        for values in frames:
+            distance_m, dtheta_rad = increments_si(values)
+            self.odom.update(distance_m, dtheta_rad)
+            self.values.update(values)
+        if frames:
+            self.last_frame_time = now
+        return frames
+
+    def sensors_stale(self, now: float, timeout_s: float) -> bool:
+        return self.last_frame_time is None or now - self.last_frame_time > timeout_s
+
+    # --- commands -------------------------------------------------------------------
+    def set_twist(self, linear_m_s: float, angular_rad_s: float, now: float) -> Optional[str]:
+        """Store a body twist. Returns a warning text for rejected or clamped input.
+
+        A non-finite twist is refused and the robot is stopped (the caller clearly lost
+        control of its numbers); a too-fast one is scaled down keeping the turn ratio.
+        """
+        try:
+            cmd = kinematics.twist_to_wheels(linear_m_s, angular_rad_s, self.wheel_base_m,
+                                             self.max_wheel_speed_m_s)
+        except ValueError as exc:
+            self.rejected_cmds += 1
+            self._twist, self._cmd_time = (0.0, 0.0), now
+            return "cmd_vel rejected, robot stopped: %s" % exc
+        self._twist, self._cmd_time = (linear_m_s, angular_rad_s), now
+        if cmd.saturated:
+            self.saturated_cmds += 1
+            return ("cmd_vel (%.3f m/s, %.3f rad/s) exceeds the wheel limit %.3f m/s; "
+                    "scaled down keeping the turn ratio"
+                    % (linear_m_s, angular_rad_s, self.max_wheel_speed_m_s))
+        return None
+
+    def set_wheels(self, left_m_s: float, right_m_s: float, now: float) -> Optional[str]:
+        """Per-wheel command (the tank/turn services); same watchdog as cmd_vel."""
+        v, w = kinematics.wheels_to_twist(left_m_s, right_m_s, self.wheel_base_m)
+        return self.set_twist(v, w, now)
+
+    def stop(self, now: float) -> None:
+        self._twist, self._cmd_time = (0.0, 0.0), now
+
+    def command_stale(self, now: float) -> bool:
+        return self._cmd_time is None or now - self._cmd_time > self.cmd_timeout_s
+
+    def bumped(self) -> bool:
+        h = hazards(self.values)
+        return h["bump_left"] or h["bump_right"]
+
+    def target_wheels(self, now: float) -> Tuple[int, int]:
+        """Wheel speeds [mm/s] the robot should run now, after the watchdog and bump rule."""
+        if self.command_stale(now):
+            return 0, 0
+        v, w = self._twist
+        if self.stop_on_bump and v > 0.0 and self.bumped():
+            v = 0.0  # keep turning so the robot can get away from what it hit
+        cmd = kinematics.twist_to_wheels(v, w, self.wheel_base_m, self.max_wheel_speed_m_s)
+        return cmd.left_mm_s, cmd.right_mm_s
+
+    def command_bytes(self, now: float) -> Optional[bytes]:
+        """Drive Direct bytes to send now, or None when the robot already has them (they
+        are repeated every ``resend_period_s`` in case a byte was lost on the line)."""
+        target = self.target_wheels(now)
+        if target == self._sent and now - self._sent_time < self.resend_period_s:
+            return None
+        if target == (0, 0) and self._sent not in (None, (0, 0)):
+            if self.command_stale(now):
+                self.watchdog_stops += 1
+            elif self.bumped():
+                self.bump_stops += 1
+        self._sent, self._sent_time = target, now
+        return protocol.drive_direct(target[0], target[1])
+
+    @property
+    def sent_wheels(self) -> Optional[Tuple[int, int]]:
+        return self._sent

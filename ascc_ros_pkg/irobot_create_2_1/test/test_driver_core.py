@@ -1,0 +1,143 @@
+"""Tests of the driver's pure logic: kinematics, odometry, watchdog, bump rule, decoding."""
+import math
+
+import pytest
+
+from irobot_create_2_1 import protocol as oi
+from irobot_create_2_1.driver_core import CreateDriverCore
+from irobot_create_2_1.kinematics import twist_to_wheels, wheels_to_twist
+from irobot_create_2_1.odometry import Odometry, integrate_arc
+from irobot_create_2_1.sensor_state import battery_si, brown_fields
+
+B = 0.258
+
+
+def test_twist_to_wheels_basic():
+    cmd = twist_to_wheels(0.2, 0.0, B)
+    assert (cmd.left_mm_s, cmd.right_mm_s, cmd.saturated) == (200, 200, False)
+    cmd = twist_to_wheels(0.0, 1.0, B)
+    assert (cmd.left_mm_s, cmd.right_mm_s) == (-129, 129)
+    v, w = wheels_to_twist(-0.129, 0.129, B)
+    assert v == pytest.approx(0.0) and w == pytest.approx(1.0)
+
+
+def test_saturation_keeps_turn_ratio():
+    cmd = twist_to_wheels(0.6, 2.0, B)
+    assert cmd.saturated
+    assert max(abs(cmd.left_mm_s), abs(cmd.right_mm_s)) == 500
+    v, w = wheels_to_twist(cmd.left_mm_s / 1000, cmd.right_mm_s / 1000, B)
+    assert w / v == pytest.approx(2.0 / 0.6, rel=0.01)
+
+
+@pytest.mark.parametrize("v,w", [(math.nan, 0.0), (0.1, math.inf), (-math.inf, 0.0)])
+def test_non_finite_twist_rejected(v, w):
+    with pytest.raises(ValueError):
+        twist_to_wheels(v, w, B)
+
+
+def test_arc_integration_closes_a_circle():
+    x = y = th = 0.0
+    n = 1000
+    radius = 0.5
+    for _ in range(n):
+        x, y, th = integrate_arc(x, y, th, 2 * math.pi * radius / n, 2 * math.pi / n)
+    assert abs(x) < 1e-9 and abs(y) < 1e-9
+
+
+def test_odometry_backwards_is_negative_x():
+    odom = Odometry()
+    odom.update(-0.5, 0.0)
+    assert odom.x == pytest.approx(-0.5)
+    odom.update(0.0, math.pi / 2)
+    odom.update(0.3, 0.0)
+    assert odom.y == pytest.approx(0.3)
+
+
+def test_odometry_covariance_grows_with_travel():
+    odom = Odometry()
+    cov0 = odom.pose_covariance()
+    odom.update(1.0, 0.0)
+    cov1 = odom.pose_covariance()
+    odom.update(1.0, 0.5)
+    cov2 = odom.pose_covariance()
+    for i in (0, 7, 35):
+        assert cov0[i] < cov1[i] < cov2[i]
+
+
+def frame(distance_mm=0, angle_deg=0, bumps=0):
+    values = {pid: 0 for pid in oi.PACKETS}
+    values.update({7: bumps, 19: distance_mm, 20: angle_deg, 22: 16000, 25: 2000, 26: 2700})
+    return oi.frame_stream_packets([6], values)
+
+
+def test_core_integrates_frames_and_reports_fields():
+    core = CreateDriverCore(wheel_base_m=B)
+    data = b"".join(frame(10, 0) for _ in range(100))
+    frames = core.on_bytes(data, now=1.0)
+    assert len(frames) == 100
+    assert core.odom.x == pytest.approx(1.0)
+    core.on_bytes(b"".join(frame(0, 1) for _ in range(90)), now=2.0)
+    assert math.degrees(core.odom.theta) == pytest.approx(90.0)
+    fields = brown_fields(core.values)
+    assert fields["voltage"] == 16000 and fields["bumpLeft"] is False
+    b = battery_si(core.values)
+    assert b["voltage_v"] == pytest.approx(16.0)
+    assert b["percentage"] == pytest.approx(2000 / 2700)
+
+
+def test_corrupt_frames_never_reach_odometry():
+    core = CreateDriverCore(wheel_base_m=B)
+    bad = bytearray(frame(500, 0))
+    bad[10] ^= 0xFF
+    core.on_bytes(bytes(bad) * 3 + frame(10, 0), now=0.0)
+    assert core.odom.x == pytest.approx(0.01)
+    assert core.parser.bad_checksum >= 3
+
+
+def test_init_sequence_starts_stream():
+    core = CreateDriverCore(mode="full")
+    seq = core.init_sequence()
+    assert seq.startswith(bytes([128, 132]))
+    assert seq.endswith(oi.stream([6]))
+
+
+def test_watchdog_stops_stale_commands():
+    core = CreateDriverCore(wheel_base_m=B, cmd_timeout_s=0.5)
+    assert core.command_bytes(0.0) == oi.drive_direct(0, 0)
+    core.set_twist(0.2, 0.0, now=1.0)
+    assert core.command_bytes(1.0) == oi.drive_direct(200, 200)
+    assert core.command_bytes(1.2) is None  # unchanged, not yet due for a resend
+    assert core.command_bytes(1.6) == oi.drive_direct(0, 0)
+    assert core.watchdog_stops == 1
+
+
+def test_nan_twist_stops_robot():
+    core = CreateDriverCore(wheel_base_m=B)
+    core.set_twist(0.3, 0.0, now=0.0)
+    assert core.target_wheels(0.1) == (300, 300)
+    warning = core.set_twist(math.nan, 0.0, now=0.2)
+    assert "rejected" in warning
+    assert core.target_wheels(0.2) == (0, 0)
+    assert core.rejected_cmds == 1
+
+
+def test_bump_stops_forward_but_allows_turning_and_reversing():
+    core = CreateDriverCore(wheel_base_m=B, stop_on_bump=True)
+    core.on_bytes(frame(bumps=oi.BUMP_LEFT), now=0.0)
+    core.set_twist(0.2, 0.0, now=0.0)
+    assert core.target_wheels(0.0) == (0, 0)
+    core.set_twist(0.2, 1.0, now=0.0)
+    assert core.target_wheels(0.0) == (-129, 129)
+    core.set_twist(-0.1, 0.0, now=0.0)
+    assert core.target_wheels(0.0) == (-100, -100)
+    core_off = CreateDriverCore(wheel_base_m=B, stop_on_bump=False)
+    core_off.on_bytes(frame(bumps=oi.BUMP_RIGHT), now=0.0)
+    core_off.set_twist(0.2, 0.0, now=0.0)
+    assert core_off.target_wheels(0.0) == (200, 200)
+
+
+def test_bad_parameters_refused():
+    with pytest.raises(ValueError):
+        CreateDriverCore(mode="passive")
+    with pytest.raises(ValueError):
+        CreateDriverCore(cmd_timeout_s=0.0)

@@ -1,0 +1,80 @@
+"""SerialLink against a real pseudo-terminal: open, read, write, loss and reopen."""
+import os
+import tty
+
+from irobot_create_2_1.link import SerialLink
+
+
+class FakeClock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+
+def make_pty():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    return master, slave, os.ttyname(slave)
+
+
+def test_read_write_through_pty():
+    master, slave, path = make_pty()
+    try:
+        link = SerialLink(path, read_timeout_s=0.2)
+        assert link.ensure_open()
+        assert link.write(b"\x80\x83")
+        assert os.read(master, 16) == b"\x80\x83"
+        os.write(master, b"hello")
+        got = b""
+        for _ in range(10):
+            got += link.read()
+            if len(got) >= 5:
+                break
+        assert got == b"hello"
+        link.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_missing_port_backs_off_and_recovers(tmp_path):
+    clock = FakeClock()
+    link_path = str(tmp_path / "create")
+    link = SerialLink(link_path, clock=clock, backoff_initial_s=0.5, backoff_max_s=2.0)
+    assert not link.ensure_open()
+    assert link.failures == 1 and "cannot open" in link.last_error
+    clock.t = 0.1
+    assert not link.ensure_open()
+    assert link.failures == 1  # inside the back-off: no attempt
+    clock.t = 0.6
+    assert not link.ensure_open()
+    assert link.failures == 2  # next back-off is 1.0 s
+    master, slave, path = make_pty()
+    try:
+        os.symlink(path, link_path)
+        clock.t = 1.0
+        assert not link.ensure_open()  # still backing off
+        clock.t = 1.7
+        assert link.ensure_open()
+        assert link.opens == 1
+    finally:
+        link.close()
+        os.close(master)
+        os.close(slave)
+
+
+def test_closed_master_is_detected():
+    master, slave, path = make_pty()
+    link = SerialLink(path, read_timeout_s=0.05)
+    assert link.ensure_open()
+    os.close(master)
+    os.close(slave)
+    for _ in range(20):
+        link.read()
+        link.write(b"\x00")
+        if not link.is_open:
+            break
+    assert not link.is_open
+    assert link.failures >= 1
