@@ -327,8 +327,8 @@ def full() -> bytes:
 
 
 def demo(number: int) -> bytes:
-    """Run built-in demo 0..9; 255 (or -1) stops the running demo."""
-    number = 255 if number == -1 else _check("demo", number, 0, 255)
+    """Run built-in demo 0..9; -1 (sent as 255) stops the running demo."""
+    number = 255 if number in (-1, 255) else _check("demo", number, 0, 9)
     return bytes((DEMO, number))
 
 
