@@ -50,7 +50,8 @@ def test_encoders(call, expected):
     lambda: oi.song(0, [128], [8]), lambda: oi.song(0, [60] * 17, [8] * 17),
     lambda: oi.song(0, [60, 61], [8]), lambda: oi.song(0, [], []),
     lambda: oi.play(16), lambda: oi.sensors(43), lambda: oi.sensors(100),
-    lambda: oi.stream([]), lambda: oi.query_list([7, 99]), lambda: oi.demo(256), lambda: oi.demo(10),
+    lambda: oi.stream([]), lambda: oi.query_list([7, 99]), lambda: oi.demo(256),
+    lambda: oi.demo(10),
 ])
 def test_encoders_refuse_out_of_range(call):
     with pytest.raises(ValueError):
