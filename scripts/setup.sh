@@ -40,7 +40,7 @@ fi
 if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/.requirements.txt; then
   log "creating .venv (system site packages visible)"
   [ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv
-  .venv/bin/python -m pip install -q --upgrade pip >/dev/null
+  .venv/bin/python -m pip install -q --upgrade pip 2>&1 | { grep -v "is neither a file nor a directory" || true; }
   .venv/bin/python -m pip install -q -r requirements.txt 2>&1 | { grep -v "is neither a file nor a directory" || true; }
   cp requirements.txt .venv/.requirements.txt
 else
