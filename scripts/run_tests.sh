@@ -41,7 +41,8 @@ fi
 
 step "pytest (pure code, no ROS master)"
 pytest_out="$(mktemp)"
-python -m pytest -q -p no:cacheprovider --import-mode=importlib ascc_ros_pkg test 2>&1 | tee "$pytest_out"
+test_dirs=(ascc_ros_pkg); [ -d test ] && test_dirs+=(test)
+python -m pytest -q -p no:cacheprovider --import-mode=importlib "${test_dirs[@]}" 2>&1 | tee "$pytest_out"
 rc=${PIPESTATUS[0]}
 [ "$rc" -eq 5 ] && rc=0   # no tests collected is not a failure of the suite
 py_pass=$(grep -Eo '[0-9]+ passed' "$pytest_out" | tail -1 | grep -Eo '[0-9]+' || echo 0)
@@ -52,7 +53,7 @@ passed=$((passed + py_pass)); failed=$((failed + py_fail))
 [ "$py_fail" -gt 0 ] && failures+=("pytest: $py_fail")
 
 if [ "$no_rostest" -eq 0 ]; then
-  mapfile -t tests < <(find ascc_ros_pkg test -name '*.test' -not -path '*/.ws/*' | sort | grep -E "${ROSTEST_FILTER:-.}")
+  mapfile -t tests < <(find "${test_dirs[@]}" -name '*.test' | sort | grep -E "${ROSTEST_FILTER:-.}")
   for t in "${tests[@]}"; do
     step "rostest $t"
     start=$(date +%s)
