@@ -1,0 +1,67 @@
+"""Helpers for the rostests of ascc_sim (imported by test/rostest_*.py; not a test).
+
+Waits are on conditions with wall-clock timeouts (the simulated clock may run faster or
+stall), never fixed sleeps.
+"""
+import math
+import threading
+import time
+
+import rospy
+
+
+def yaw_of(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def wait_for(condition, timeout_s, what):
+    """Poll ``condition()`` until true; AssertionError naming ``what`` after timeout_s of
+    wall-clock time."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if rospy.is_shutdown():
+            raise AssertionError("ROS shut down while waiting for %s" % what)
+        if time.monotonic() > deadline:
+            raise AssertionError("timed out after %.0f s waiting for %s" % (timeout_s, what))
+        time.sleep(0.02)
+
+
+class Latest:
+    """Subscribes ``topic`` and keeps the newest message, a count and (optionally) all."""
+
+    def __init__(self, topic, msg_type, keep_all=False):
+        self.topic = topic
+        self.msg = None
+        self.count = 0
+        self.all = [] if keep_all else None
+        self._lock = threading.Lock()
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=50)
+
+    def _cb(self, msg):
+        with self._lock:
+            self.msg = msg
+            self.count += 1
+            if self.all is not None:
+                self.all.append(msg)
+
+    def wait(self, timeout_s=60.0, count=1):
+        wait_for(lambda: self.count >= count, timeout_s, "%d message(s) on %s"
+                 % (count, self.sub.resolved_name))
+        return self.msg
+
+
+def pose_of(odom_or_pose_msg):
+    """(x, y, yaw) of a nav_msgs/Odometry or geometry_msgs/PoseStamped."""
+    p = odom_or_pose_msg.pose
+    p = getattr(p, "pose", p)
+    return p.position.x, p.position.y, yaw_of(p.orientation)
+
+
+def compose(a, b):
+    """Pose b expressed in frame a -> pose in a's parent frame (2D)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2])
