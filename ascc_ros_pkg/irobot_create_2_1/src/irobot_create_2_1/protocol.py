@@ -201,9 +201,16 @@ def frame_stream(items: Sequence[Tuple[int, int]]) -> bytes:
 
 
 def encode_packets(packet_ids: Iterable[int], values: Mapping[int, int]) -> bytes:
-    """Data of the requested packets/groups back to back (a Sensors/Query List reply)."""
-    return b"".join(encode_value(pid, values[pid])
-                    for requested in packet_ids for pid in expand(requested))
+    """Data of the requested packets/groups back to back (a Sensors/Query List reply).
+    ValueError when a value does not fit its packet."""
+    ids, layout = _layout(tuple(packet_ids))
+    try:
+        return layout.pack(*[values[pid] for pid in ids])
+    except struct.error:
+        # find the offending packet for a useful message
+        for pid in ids:
+            encode_value(pid, values[pid])
+        raise
 
 
 def frame_stream_packets(packet_ids: Sequence[int], values: Mapping[int, int]) -> bytes:
