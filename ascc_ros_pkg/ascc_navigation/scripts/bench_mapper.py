@@ -1,0 +1,219 @@
+#!/usr/bin/env python3
+"""Benchmark of the gmapping-compatible mapper (no ROS master needed).
+
+For each world the robot drives a fixed route (turn in place, then straight at 0.3 m/s) with
+drifting wheel odometry; scans are fed to ``SlamMapper`` (the node's core) with the shipped
+parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
+  * ms per filter update: CPU time of this process (mean / 95th percentile; the benchmark
+    is single-threaded, so this is the cost on one core even when other processes share the
+    machine) and the wall-clock mean;
+  * map accuracy: share of the cells the map marks known (0 or 100) that agree with the
+    ground truth (also split into free / occupied cells);
+  * pose error [m] of map->odom->base_link against the truth: at the end of the route
+    (the routes are loops, so this is the loop-closure error), the maximum along the route,
+    and the odometry's own end error for comparison.
+
+Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
+caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
+world files, ground truth ``truth_map``, scans from ascc_sim's URG-04LX model: 1 %
+range noise, dropouts at far range and grazing incidence, glass cabinet in the lab).
+
+    python3 scripts/bench_mapper.py [--worlds synthetic,office,lab,corridor] [--seed 1]
+"""
+import argparse
+import math
+import os
+import sys
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the node runs
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "src"))
+
+from ascc_navigation import mapper as M  # noqa: E402
+from ascc_navigation import synthetic as S  # noqa: E402
+from ascc_navigation.grid import OCCUPIED, GridInfo, map_agreement  # noqa: E402
+from ascc_navigation.laser import LaserMount  # noqa: E402
+from ascc_navigation.pose2d import compose  # noqa: E402
+
+CONFIG = os.path.join(HERE, "..", "config", "gmapping.yaml")
+SIM_WORLDS = os.path.join(HERE, "..", "..", "ascc_sim", "worlds")
+SCAN_PERIOD_S = 0.1
+FEED_EVERY = 2  # feed every 2nd scan (5 Hz): the node also skips scans when busy
+MIN_CLEARANCE_M = 0.25  # routes keep this far from obstacles (robot radius 0.165 m)
+
+# Loops through each world (world frame, metres); checked against the ground truth.
+ROUTES = {
+    "office": [(2.5, 7.6), (5.5, 7.2), (6.9, 7.2), (6.9, 5.5), (12.45, 5.5), (12.45, 7.1),
+               (14.3, 7.0), (12.45, 7.0), (12.45, 5.5), (9.45, 5.5), (9.45, 3.0), (6.5, 2.6),
+               (9.45, 3.0), (9.45, 5.5), (4.65, 5.5), (4.65, 3.0), (2.5, 2.6), (4.65, 3.0),
+               (4.65, 5.5), (1.9, 5.5), (1.9, 7.3), (2.5, 7.6), (4.0, 7.5)],
+    "lab": [(2.0, 1.5), (7.5, 1.5), (8.3, 2.5), (8.3, 5.5), (7.8, 6.3), (5.0, 6.4), (2.0, 6.3),
+            (2.0, 5.5), (2.0, 2.5), (2.0, 1.5), (4.5, 1.5)],
+    "corridor": [(5.0, 1.9), (98.1, 1.9), (98.1, 23.1), (1.9, 23.1), (1.9, 1.9), (12.0, 1.9)],
+}
+
+
+def load_params(path):
+    with open(path) as f:
+        values = yaml.safe_load(f)
+    known = {name for name, _, _, _ in M.PARAMETERS}
+    return {k: v for k, v in values.items() if k in known}
+
+
+class SyntheticWorld:
+    name = "synthetic"
+
+    def __init__(self, rng):
+        self.truth, self.info = S.office_world()
+        self.occupied = self.truth == OCCUPIED
+        self.route = S.office_loop_waypoints()
+        self.spec = S.LaserSpec()
+        self.mount = LaserMount(0.05, 0.0, 0.0)
+        self.rng = rng
+
+    def scan(self, pose):
+        return S.simulate_scan(self.occupied, self.info, pose, self.mount, self.spec, self.rng)
+
+
+class SimWorld:
+    """A world of ascc_sim, scanned with its own laser model (imported from ascc_sim)."""
+
+    def __init__(self, name, rng):
+        from ascc_sim.laser import LaserConfig, LaserModel
+        from ascc_sim.world import load_world
+
+        self.name = name
+        world = load_world(os.path.join(SIM_WORLDS, name + ".yaml"))
+        g = world.truth_map
+        self.truth = g.occupancy
+        self.info = GridInfo(g.resolution, g.width, g.height, g.origin_x, g.origin_y)
+        self.clearance = g.clearance_m
+        with open(os.path.join(SIM_WORLDS, "..", "config", "asccbot.yaml")) as f:
+            robot = yaml.safe_load(f)
+        self.mount = LaserMount(robot["laser_x_m"], robot["laser_y_m"],
+                                math.radians(robot["laser_yaw_deg"]))
+        cfg = LaserConfig()
+        self.laser = LaserModel(world.grid, cfg, world.dropout)
+        self.circles = world.circles
+        self.spec = S.LaserSpec(fov=cfg.angle_max_rad - cfg.angle_min_rad,
+                                increment=cfg.angle_increment_rad, range_min=cfg.range_min_m,
+                                range_max=cfg.range_max_m)
+        self.spec.n = cfg.n_beams
+        self.spec.angle_min = cfg.angle_min_rad
+        self.route = ROUTES[name]
+        self.rng = rng
+
+    def check_route(self, traj):
+        ix, iy = self.info.world_to_cell(traj[:, 0], traj[:, 1])
+        low = float(self.clearance[iy, ix].min())
+        if low < MIN_CLEARANCE_M:
+            raise SystemExit("route of %s passes %.2f m from an obstacle" % (self.name, low))
+
+    def scan(self, pose):
+        lx, ly, lth = compose(pose, (self.mount.x, self.mount.y, self.mount.yaw))
+        return self.laser.scan(lx, ly, lth, self.circles, self.rng)
+
+
+def odometry(kind, traj, rng):
+    """Odometry along the true trajectory, starting at the true start (so the map frame is
+    the world frame). ``sim``: ascc_sim's wheel-encoder model with its configured errors;
+    ``harsh``: ``synthetic.noisy_odometry``'s defaults (1 % scale, 3 % noise, 0.01 rad/m
+    heading bias), several times worse."""
+    if kind == "harsh":
+        return S.noisy_odometry(traj, rng)
+    with open(os.path.join(SIM_WORLDS, "..", "config", "asccbot.yaml")) as f:
+        robot = yaml.safe_load(f)
+    return S.wheel_odometry(traj, rng, robot["wheel_base_m"], robot["encoder_scale_sigma"],
+                            robot["encoder_noise_m_per_sqrt_m"])
+
+
+def run(world, params, seed, odom_kind):
+    rng = np.random.default_rng(seed)
+    traj = S.waypoint_trajectory(world.route, v=0.3, w=0.8, dt=SCAN_PERIOD_S)
+    if hasattr(world, "check_route"):
+        world.check_route(traj)
+    odom = odometry(odom_kind, traj, rng)
+    mapper = M.SlamMapper(M.config_from_parameters(params), seed=seed)
+    spec = world.spec
+    times, walls, errors, statuses = [], [], [], {}
+    k = 0
+    for k in range(0, traj.shape[0], FEED_EVERY):
+        scan = M.ScanInput(k * SCAN_PERIOD_S, world.scan(traj[k]), spec.angle_min,
+                           spec.angle_increment, spec.range_min, spec.range_max)
+        t0, c0 = time.perf_counter(), time.process_time()
+        out = mapper.handle_scan(scan, odom[k], world.mount)
+        cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+        statuses[out.status] = statuses.get(out.status, 0) + 1
+        if out.status == M.UPDATED:
+            times.append(cpu)
+            walls.append(wall)
+            est = compose(mapper.map_to_odom(), odom[k])
+            errors.append(math.hypot(est[0] - traj[k, 0], est[1] - traj[k, 1]))
+    est_grid, est_info = mapper.occupancy()
+    acc = map_agreement(est_grid, est_info, world.truth, world.info)
+    final = compose(mapper.map_to_odom(), odom[k])
+    return {
+        "world": world.name, "updates": len(times), "statuses": statuses,
+        "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
+        "ms_max": 1e3 * float(np.max(times)), "ms_wall": 1e3 * float(np.mean(walls)),
+        "acc": acc,
+        "end_err": math.hypot(final[0] - traj[k, 0], final[1] - traj[k, 1]),
+        "max_err": float(np.max(errors)),
+        "odom_err": math.hypot(odom[k, 0] - traj[k, 0], odom[k, 1] - traj[k, 1]),
+        "length": float(np.sum(np.hypot(np.diff(traj[:, 0]), np.diff(traj[:, 1])))),
+        "map_m": (est_info.width * est_info.resolution, est_info.height * est_info.resolution),
+        "maps_mb": 2.0 * est_info.width * est_info.height * mapper.cfg.rbpf.particles / 1e6,
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--worlds", default="synthetic,office,lab,corridor")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--runs", type=int, default=1, help="seeds per world (seed, seed+1, ...)")
+    ap.add_argument("--particles", type=int, default=None, help="override the config")
+    ap.add_argument("--odometry", choices=("sim", "harsh"), default="sim",
+                    help="odometry error model (see odometry())")
+    ap.add_argument("--config", default=CONFIG)
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="override a parameter of the config (gmapping name), repeatable")
+    args = ap.parse_args()
+    cv2.setNumThreads(1)
+    params = load_params(args.config)
+    if args.particles:
+        params["particles"] = args.particles
+    known = {name for name, _, _, _ in M.PARAMETERS}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        if name not in known:
+            ap.error("unknown parameter %r (known: %s)" % (name, " ".join(sorted(known))))
+        params[name] = yaml.safe_load(value)
+    print("mapper benchmark, %s odometry, parameters: %s" % (args.odometry, " ".join(
+        "%s=%s" % kv for kv in sorted(params.items()))))
+    header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %7s %11s %6s"
+              % ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
+                 "free", "occ", "known", "end_err", "max_err", "odom", "map", "maps"))
+    print(header)
+    for name in args.worlds.split(","):
+        for seed in range(args.seed, args.seed + args.runs):
+            rng = np.random.default_rng(1000 + seed)
+            world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
+            r = run(world, params, seed, args.odometry)
+            a = r["acc"]
+            print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
+                  "%6.3fm %6.2fm %4.0fmx%4.0fm %4.0fMB"
+                  % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
+                     r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
+                     100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
+                     r["odom_err"], r["map_m"][0], r["map_m"][1], r["maps_mb"]))
+            sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()

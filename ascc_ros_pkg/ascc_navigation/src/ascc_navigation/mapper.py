@@ -1,0 +1,287 @@
+"""The gmapping-compatible mapper without ROS: decides when to update the particle filter,
+guards against bad input, and computes what slam_gmapping publishes (map, entropy, map->odom).
+
+The ROS node (``nodes/slam_mapper``) only looks up TF, converts messages and calls
+``SlamMapper.handle_scan`` with plain numbers. Parameters keep gmapping's names; the table
+``PARAMETERS`` lists them with defaults and units (the node reads ``~<name>`` for each).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ascc_navigation.grid import GridInfo
+from ascc_navigation.laser import LaserMount, prepare_scan
+from ascc_navigation.pose2d import compose, inverse, relative
+from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
+
+
+@dataclass
+class MapperConfig:
+    """When to update (gmapping's wrapper parameters) plus the filter's ``RbpfConfig``."""
+
+    linear_update: float = 1.0      # [linearUpdate] translation [m] that triggers an update
+    angular_update: float = 0.5     # [angularUpdate] rotation [rad] that triggers an update
+    temporal_update: float = -1.0   # [temporalUpdate] update anyway after this [s]; <0: never
+    max_urange: float = 80.0        # [maxUrange] usable range [m]; beams are cropped to it
+    max_range: float = -1.0         # [maxRange] beams beyond are discarded [m]; <=0: auto
+    lskip: int = 0                  # [lskip] match with every (lskip+1)-th beam
+    throttle_scans: int = 1         # [throttle_scans] process every n-th scan only
+    odom_jump_m: float = 1.0        # odometry moving more than this [m] between two scans
+    #                                 is a jump (reset odometry / teleport): not used as motion
+    rbpf: Optional[RbpfConfig] = None
+
+    def __post_init__(self):
+        if self.rbpf is None:
+            self.rbpf = RbpfConfig()
+
+
+# (ROS parameter name, attribute path, type, unit/meaning) -- defaults come from the dataclasses.
+PARAMETERS: List[Tuple[str, str, type, str]] = [
+    ("particles", "rbpf.particles", int, "number of particles"),
+    ("delta", "rbpf.delta", float, "map resolution [m/cell]"),
+    ("xmin", "rbpf.xmin", float, "initial map extent [m] (the map grows)"),
+    ("ymin", "rbpf.ymin", float, "initial map extent [m]"),
+    ("xmax", "rbpf.xmax", float, "initial map extent [m]"),
+    ("ymax", "rbpf.ymax", float, "initial map extent [m]"),
+    ("maxUrange", "max_urange", float, "usable laser range [m]"),
+    ("maxRange", "max_range", float, "beams beyond are discarded [m]; <=0: range_max - 1 cm"),
+    ("sigma", "rbpf.sigma", float, "end-point match std [m]"),
+    ("kernelSize", "rbpf.kernel_size", int, "match radius [cells] (at least 3 sigma)"),
+    ("lstep", "rbpf.lstep", float, "matcher translation step [m]"),
+    ("astep", "rbpf.astep", float, "matcher rotation step [rad]"),
+    ("iterations", "rbpf.iterations", int, "matcher step halvings"),
+    ("lsigma", "rbpf.lsigma", float, "beam likelihood std [m]"),
+    ("ogain", "rbpf.ogain", float, "likelihood divisor (weight smoothing)"),
+    ("lskip", "lskip", int, "use every (lskip+1)-th beam for matching"),
+    ("minimumScore", "rbpf.minimum_score", float, "min match score [beams] to trust matching"),
+    ("srr", "rbpf.srr", float, "odometry error: translation per translation [m/m]"),
+    ("srt", "rbpf.srt", float, "odometry error: rotation per translation [rad/m]"),
+    ("str", "rbpf.str", float, "odometry error: translation per rotation [m/rad]"),
+    ("stt", "rbpf.stt", float, "odometry error: rotation per rotation [rad/rad]"),
+    ("linearUpdate", "linear_update", float, "update after this translation [m]"),
+    ("angularUpdate", "angular_update", float, "update after this rotation [rad]"),
+    ("temporalUpdate", "temporal_update", float, "update after this time [s]; <0 off"),
+    ("resampleThreshold", "rbpf.resample_threshold", float, "resample when Neff/N below"),
+    ("occ_thresh", "rbpf.occ_thresh", float, "hits/visits above which a cell is occupied"),
+    ("throttle_scans", "throttle_scans", int, "process every n-th scan"),
+    ("motion_prior", "rbpf.motion_prior", float, "matcher pull to the sampled pose (not gmapping)"),
+    ("new_area_margin", "rbpf.new_area_margin", float,
+     "beams beyond maxUrange - motion - this [m] are not matched (not gmapping)"),
+    ("odom_jump_m", "odom_jump_m", float, "odometry jump [m] treated as a reset (not gmapping)"),
+]
+
+
+def default_parameters() -> Dict[str, Any]:
+    """``{ros_name: default}`` for every parameter in ``PARAMETERS``."""
+    cfg = MapperConfig()
+    return {name: _get(cfg, path) for name, path, _, _ in PARAMETERS}
+
+
+def config_from_parameters(values: Dict[str, Any]) -> MapperConfig:
+    """A ``MapperConfig`` from ``{ros_name: value}`` (missing names keep their defaults).
+    Raises ValueError naming the parameter if a value has the wrong type or range."""
+    cfg = MapperConfig()
+    for name, path, kind, _ in PARAMETERS:
+        if name not in values:
+            continue
+        value = values[name]
+        try:
+            if kind is int and float(value) != int(value):
+                raise ValueError
+            converted = kind(value)
+        except (TypeError, ValueError) as err:
+            raise ValueError("parameter %s: expected %s, got %r"
+                             % (name, kind.__name__, value)) from err
+        _set(cfg, path, converted)
+    if cfg.linear_update < 0 or cfg.angular_update < 0:
+        raise ValueError("linearUpdate and angularUpdate must be >= 0")
+    if not cfg.max_urange > 0:
+        raise ValueError("maxUrange must be > 0")
+    if cfg.throttle_scans < 1:
+        raise ValueError("throttle_scans must be >= 1")
+    cfg.rbpf.validate()
+    return cfg
+
+
+def _get(obj, path: str):
+    for part in path.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+def _set(obj, path: str, value) -> None:
+    parts = path.split(".")
+    for part in parts[:-1]:
+        obj = getattr(obj, part)
+    if parts[-1] not in {f.name for f in fields(obj)}:
+        raise AttributeError(path)
+    setattr(obj, parts[-1], value)
+
+
+class ScanInput:
+    """The fields of a sensor_msgs/LaserScan the mapper needs (stamp in seconds)."""
+
+    __slots__ = ("stamp", "ranges", "angle_min", "angle_increment", "range_min", "range_max")
+
+    def __init__(self, stamp: float, ranges: Sequence[float], angle_min: float,
+                 angle_increment: float, range_min: float, range_max: float):
+        self.stamp = float(stamp)
+        self.ranges = np.asarray(ranges, dtype=float)
+        self.angle_min = float(angle_min)
+        self.angle_increment = float(angle_increment)
+        self.range_min = float(range_min)
+        self.range_max = float(range_max)
+
+
+# Outcome.status values
+STARTED = "started"      # first scan: map initialised
+UPDATED = "updated"      # filter updated
+SKIPPED = "skipped"      # not moved enough / throttled (normal)
+REJECTED = "rejected"    # bad input; ``reason`` says why
+RESET = "reset"          # time went backwards: everything restarted with this scan
+
+
+class Outcome:
+    """What ``handle_scan`` did. ``reason`` is a human-readable sentence for warnings."""
+
+    __slots__ = ("status", "reason", "stats")
+
+    def __init__(self, status: str, reason: str = "", stats: Optional[UpdateStats] = None):
+        self.status = status
+        self.reason = reason
+        self.stats = stats
+
+    @property
+    def map_changed(self) -> bool:
+        return self.status in (STARTED, UPDATED, RESET)
+
+    def __repr__(self) -> str:
+        return "Outcome(%s%s)" % (self.status, ", " + self.reason if self.reason else "")
+
+
+def check_scan(scan: ScanInput) -> str:
+    """Empty string if the scan's metadata and ranges are usable, else why not."""
+    if scan.ranges.size == 0:
+        return "empty scan (no ranges)"
+    for name in ("angle_min", "angle_increment", "range_min", "range_max"):
+        if not math.isfinite(getattr(scan, name)):
+            return "scan field %s is not finite" % name
+    if scan.angle_increment == 0.0:
+        return "scan angle_increment is 0"
+    if not scan.range_max > max(scan.range_min, 0.0):
+        return "scan range_max %.3f is not above range_min %.3f" % (scan.range_max,
+                                                                   scan.range_min)
+    r = scan.ranges
+    with np.errstate(invalid="ignore"):
+        valid = (np.isfinite(r) & (r >= scan.range_min)) | np.isposinf(r)
+    if not valid.any():
+        return "no valid range in the scan (%d beams, all NaN/-inf/below range_min)" % r.size
+    return ""
+
+
+class SlamMapper:
+    """slam_gmapping's behaviour on plain data. Not thread-safe: call from one thread."""
+
+    def __init__(self, cfg: MapperConfig, seed: Optional[int] = None):
+        self.cfg = cfg
+        self.seed = seed
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        self.slam = RbpfSlam(self.cfg.rbpf, seed=self.seed)
+        self.last_stamp: Optional[float] = None      # newest scan seen [s]
+        self.last_odom: Optional[np.ndarray] = None  # odometry at the newest scan seen
+        self.update_odom: Optional[np.ndarray] = None  # odometry at the last filter update
+        self.update_stamp: Optional[float] = None
+        self.travelled = 0.0  # path length [m] since the last update (as gmapping counts)
+        self.turned = 0.0     # absolute rotation [rad] since the last update
+        self.scan_count = 0
+
+    def reset(self) -> None:
+        """Forget map and trajectory (the next scan starts a new map)."""
+        self._reset_state()
+
+    @property
+    def started(self) -> bool:
+        return self.slam.initialized
+
+    def handle_scan(self, scan: ScanInput, odom_pose, mount: LaserMount) -> Outcome:
+        """Process one scan taken at odometry pose ``odom_pose`` (base in odom frame, x y
+        theta) with the laser mounted at ``mount``."""
+        odom_pose = np.asarray(odom_pose, dtype=float)
+        reset_reason = ""
+        if self.last_stamp is not None and scan.stamp < self.last_stamp:
+            reset_reason = ("time went backwards by %.3f s (bag loop or simulator restart): "
+                            "map reset" % (self.last_stamp - scan.stamp))
+            self.reset()
+        problem = check_scan(scan)
+        if problem:
+            return Outcome(RESET if reset_reason else REJECTED,
+                           "; ".join(p for p in (reset_reason, problem) if p))
+        self.scan_count += 1
+        previous_odom = self.last_odom
+        self.last_stamp = scan.stamp
+        self.last_odom = odom_pose
+        if not self.slam.initialized:
+            prepared = self._prepare(scan, mount)
+            if not prepared.usable:
+                return Outcome(REJECTED, "no beam of the first scan returned within maxUrange")
+            stats = self.slam.start(odom_pose, prepared)
+            self._mark_update(scan.stamp, odom_pose)
+            return Outcome(RESET if reset_reason else STARTED, reset_reason, stats)
+        step = relative(previous_odom, odom_pose)
+        jump = math.hypot(step[0], step[1])
+        if jump > self.cfg.odom_jump_m:
+            # The odometry frame jumped (driver restart, odometry reset); the robot did not
+            # move that far in one scan period: re-anchor, as if it had not moved at all.
+            self.update_odom = compose(odom_pose, relative(previous_odom, self.update_odom))
+            return Outcome(REJECTED, "odometry jumped by %.2f m between two scans (more than "
+                           "odom_jump_m): motion ignored" % jump)
+        self.travelled += jump
+        self.turned += abs(float(step[2]))
+        if self.scan_count % self.cfg.throttle_scans:
+            return Outcome(SKIPPED, "throttled")
+        if not self._due(scan.stamp):
+            return Outcome(SKIPPED, "not moved enough")
+        prepared = self._prepare(scan, mount)
+        stats = self.slam.update(relative(self.update_odom, odom_pose), prepared)
+        self._mark_update(scan.stamp, odom_pose)
+        return Outcome(UPDATED, "" if prepared.usable else
+                       "no beam returned within maxUrange: odometry only", stats)
+
+    def _prepare(self, scan: ScanInput, mount: LaserMount):
+        delta = self.cfg.rbpf.delta
+        return prepare_scan(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min,
+                            scan.range_max, mount, self.cfg.max_urange,
+                            max_range=self.cfg.max_range if self.cfg.max_range > 0 else None,
+                            lskip=self.cfg.lskip, free_pullback=delta, hit_offset=0.5 * delta)
+
+    def _due(self, stamp: float) -> bool:
+        cfg = self.cfg
+        return (self.travelled >= cfg.linear_update or self.turned >= cfg.angular_update
+                or 0 <= cfg.temporal_update <= stamp - self.update_stamp)
+
+    def _mark_update(self, stamp: float, odom_pose: np.ndarray) -> None:
+        self.update_odom = odom_pose
+        self.update_stamp = stamp
+        self.travelled = 0.0
+        self.turned = 0.0
+
+    def map_to_odom(self) -> np.ndarray:
+        """map->odom (x, y, theta) from the best particle; identity before the first scan."""
+        if not self.slam.initialized:
+            return np.zeros(3)
+        return compose(self.slam.best_pose, inverse(self.update_odom))
+
+    def robot_pose(self) -> np.ndarray:
+        """Best estimate of base in map at the last update (x, y, theta)."""
+        return self.slam.best_pose
+
+    def occupancy(self) -> Tuple[np.ndarray, GridInfo]:
+        """The best particle's -1/0/100 grid and geometry."""
+        return self.slam.occupancy()

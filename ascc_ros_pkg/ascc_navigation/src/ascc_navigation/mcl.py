@@ -1,0 +1,398 @@
+"""Monte Carlo localization on a known occupancy grid, as amcl does it (no ROS imports).
+
+* Motion: the odometry motion model of Thrun et al., Probabilistic Robotics, table 5.6
+  (amcl's ``diff`` model, noise ``odom_alpha1..4``), applied to all particles at once.
+* Sensor: the likelihood-field laser model (table 6.3). The distance of every cell to the
+  nearest obstacle surface comes from ``cv2.distanceTransform`` once per map; a particle's
+  score is one bilinear table lookup per beam for the whole (particles x beams) block.
+  Particles standing in an occupied cell or off the map are penalised.
+  Beams of one scan are not independent; their log-likelihoods are summed with the
+  exponent ``laser_beam_exponent`` (< 1) so the posterior is not over-confident.
+* Resampling: low-variance (systematic) resampling with KLD-adaptive sample size
+  (Fox 2003; amcl's ``kld_err``/``kld_z``, ``min_particles``..``max_particles``), and
+  optional random-particle injection (augmented MCL, ``recovery_alpha_slow/fast``).
+* Estimate: weighted mean and covariance of the whole cloud, yaw included (circular mean,
+  wrapped deviations): the reported covariance is the particle spread, widened by the Monte
+  Carlo error of the mean (1 + 1/ESS) and the map's cell size (see ``estimate``).
+
+Poses are (x [m], y [m], yaw [rad]) rows; the grid follows nav_msgs/OccupancyGrid (row-major,
+row index grows with +y of the map origin).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Mapping, Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+
+from ascc_navigation.grid import GridInfo
+from ascc_navigation.laser import LaserMount
+from ascc_navigation.pose2d import compose, inverse, normalize_angle
+
+OCCUPIED_MIN = 65  # occupancy value [0..100] from which a cell counts as an obstacle
+FREE_MAX = 25  # occupancy value up to which a known cell counts as free
+OBSTACLE_LOG_PENALTY = -50.0  # log-weight of a particle standing in an occupied cell
+
+
+@dataclass
+class MclParams:
+    """Filter parameters, named and defaulted as amcl's ROS parameters (units in comments)."""
+
+    min_particles: int = 100
+    max_particles: int = 5000
+    kld_err: float = 0.01  # max error between true and estimated distribution
+    kld_z: float = 0.99  # upper standard normal quantile, used as amcl uses it
+    update_min_d: float = 0.2  # [m] translation between filter updates
+    update_min_a: float = np.pi / 6.0  # [rad] rotation between filter updates
+    resample_interval: int = 2  # filter updates between resamplings
+    recovery_alpha_slow: float = 0.0  # 0 disables random-particle injection
+    recovery_alpha_fast: float = 0.0
+    laser_max_beams: int = 30  # beams used per scan
+    laser_z_hit: float = 0.95
+    laser_z_rand: float = 0.05
+    laser_sigma_hit: float = 0.2  # [m]
+    laser_likelihood_max_dist: float = 2.0  # [m] distance transform clipped here
+    laser_beam_exponent: float = 0.2  # weight of each beam's log-likelihood (stand-in only)
+    odom_alpha1: float = 0.2  # rotation noise from rotation
+    odom_alpha2: float = 0.2  # rotation noise from translation
+    odom_alpha3: float = 0.2  # translation noise from translation
+    odom_alpha4: float = 0.2  # translation noise from rotation
+    kld_bin_xy: float = 0.5  # [m] histogram bin used by KLD sampling (as in amcl)
+    kld_bin_yaw: float = np.deg2rad(10.0)  # [rad]
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, object]) -> MclParams:
+        """Parameters from a dict (ROS parameters, YAML); unknown keys are ignored."""
+        out = cls()
+        for f in fields(cls):
+            if f.name in values:
+                kind = type(getattr(out, f.name))
+                setattr(out, f.name, kind(values[f.name]))
+        return out
+
+
+class LikelihoodField:
+    """Per-cell log-likelihood of a laser end point, precomputed for one map."""
+
+    def __init__(self, grid: np.ndarray, info: GridInfo, sigma_hit: float = 0.2,
+                 z_hit: float = 0.95, z_rand: float = 0.05, max_dist: float = 2.0,
+                 range_max: float = 5.6):
+        grid = np.asarray(grid)
+        if grid.shape != info.shape or grid.size == 0:
+            raise ValueError("occupancy grid of shape %s does not match %r"
+                             % (grid.shape, info))
+        self.info = info
+        self.shape = grid.shape
+        self.resolution = info.resolution
+        occupied = grid >= OCCUPIED_MIN
+        self.free_cells = np.flatnonzero((grid >= 0) & (grid <= FREE_MAX))
+        self.occupied = occupied.ravel()
+        if occupied.any():
+            # centre-to-centre distance minus half a cell: distance to the obstacle's surface
+            dist = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2,
+                                         cv2.DIST_MASK_PRECISE)
+            dist = np.maximum(dist - 0.5, 0.0) * info.resolution
+        else:
+            dist = np.full(grid.shape, np.inf, dtype=np.float32)
+        dist = np.minimum(dist, max_dist)
+        rand = z_rand / max(range_max, 1e-3)
+        self.log_p = np.log(z_hit * np.exp(-dist ** 2 / (2.0 * sigma_hit ** 2)) + rand)
+        self.log_p = self.log_p.astype(np.float32).ravel()
+        self.log_p_outside = float(np.log(z_hit * np.exp(-max_dist ** 2 / (2 * sigma_hit ** 2))
+                                          + rand))
+
+    def cell_centres(self, flat_index: np.ndarray) -> np.ndarray:
+        """World coordinates (N, 2) [m] of the centres of cells given by flat index."""
+        rows, cols = np.divmod(flat_index, self.shape[1])
+        return np.column_stack(self.info.cell_to_world(cols, rows))
+
+    def in_obstacle(self, xy: np.ndarray) -> np.ndarray:
+        """True for world points (..., 2) in an occupied cell or off the map."""
+        ix, iy = self.info.world_to_cell(xy[..., 0], xy[..., 1])
+        inside = self.info.contains(ix, iy)
+        flat = np.where(inside, iy * self.shape[1] + ix, 0)
+        return ~inside | self.occupied[flat]
+
+    def log_likelihood(self, xy: np.ndarray) -> np.ndarray:
+        """log p(end point) for world points (..., 2), bilinear between cell centres.
+
+        Interpolating (rather than taking the nearest cell, as amcl does) keeps the score
+        smooth below one cell, so the estimate is not quantised to the map resolution.
+        Points off the map get the floor value.
+        """
+        info = self.info
+        gc = (xy[..., 0] - info.origin_x) / info.resolution - 0.5  # cell centres at integers
+        gr = (xy[..., 1] - info.origin_y) / info.resolution - 0.5
+        c0 = np.floor(gc)
+        r0 = np.floor(gr)
+        fc, fr = gc - c0, gr - r0
+        c0 = c0.astype(np.int64)
+        r0 = r0.astype(np.int64)
+        rows, cols = self.shape
+        inside = (r0 >= 0) & (r0 < rows - 1) & (c0 >= 0) & (c0 < cols - 1)
+        flat = np.where(inside, r0 * cols + c0, 0)
+        lp = self.log_p
+        val = ((1 - fr) * ((1 - fc) * lp[flat] + fc * lp[flat + 1])
+               + fr * ((1 - fc) * lp[flat + cols] + fc * lp[flat + cols + 1]))
+        return np.where(inside, val, self.log_p_outside)
+
+
+def scan_endpoints(ranges: np.ndarray, angle_min: float, angle_increment: float,
+                   mount: LaserMount, range_min: float, range_max: float,
+                   max_beams: int) -> np.ndarray:
+    """End points (B, 2) [m] in the base frame of up to ``max_beams`` usable beams.
+
+    Beams that are NaN/inf, below ``range_min`` or at/after ``range_max`` (no return) are
+    dropped, as amcl's likelihood-field model does; the rest are subsampled evenly.
+    """
+    ranges = np.asarray(ranges, dtype=float).ravel()
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(ranges) & (ranges >= range_min) & (ranges < range_max)
+    idx = np.flatnonzero(ok)
+    if idx.size > max_beams > 0:
+        idx = idx[np.round(np.linspace(0, idx.size - 1, max_beams)).astype(np.int64)]
+    a = mount.beam_angles(ranges.size, angle_min, angle_increment)[idx]
+    r = ranges[idx]
+    return np.column_stack([mount.x + r * np.cos(a), mount.y + r * np.sin(a)])
+
+
+def kld_sample_count(k: np.ndarray, err: float, z: float) -> np.ndarray:
+    """Particles needed (Fox 2003) when the samples occupy ``k`` histogram bins."""
+    k = np.asarray(k, dtype=float)
+    km1 = np.maximum(k - 1.0, 1.0)
+    b = 2.0 / (9.0 * km1)
+    x = 1.0 - b + np.sqrt(b) * z
+    n = np.ceil(km1 / (2.0 * err) * x ** 3)
+    return np.where(k <= 1, 0, n)
+
+
+def low_variance_indices(weights: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """Systematic resampling: ``count`` indices drawn with one random offset."""
+    cdf = np.cumsum(weights)
+    cdf /= cdf[-1]
+    u = (rng.random() + np.arange(count)) / count
+    return np.minimum(np.searchsorted(cdf, u, side="right"), len(weights) - 1)
+
+
+class MonteCarloLocalizer:
+    """The particle filter. ``process`` is the one call per scan; the rest are its steps."""
+
+    def __init__(self, field: LikelihoodField, params: Optional[MclParams] = None,
+                 rng: Optional[np.random.Generator] = None):
+        self.params = params or MclParams()
+        self.rng = rng or np.random.default_rng()
+        self.field = field
+        self.poses = np.zeros((0, 3))
+        self.log_w = np.zeros(0)
+        self.last_odom: Optional[np.ndarray] = None
+        self.updates_since_resample = 0
+        self.force_update = True
+        self.log_w_slow = None  # augmented MCL running averages of the mean likelihood
+        self.log_w_fast = None
+        self.last_ess = float("inf")  # effective sample size after the last sensor update
+
+    # -- initialisation -------------------------------------------------------------
+    @property
+    def initialized(self) -> bool:
+        return len(self.poses) > 0
+
+    def initialize_gaussian(self, mean: Sequence[float], cov: np.ndarray) -> None:
+        """Particles drawn around ``mean`` (x, y, yaw) with 3x3 covariance ``cov``."""
+        n = self.params.max_particles
+        cov = np.asarray(cov, dtype=float).reshape(3, 3)
+        cov = 0.5 * (cov + cov.T) + np.eye(3) * 1e-9
+        self.poses = self.rng.multivariate_normal(np.asarray(mean, dtype=float), cov, n)
+        self.poses[:, 2] = normalize_angle(self.poses[:, 2])
+        self.log_w = np.full(n, -np.log(n))
+        self._restart()
+
+    def initialize_global(self) -> None:
+        """Particles spread uniformly over the free cells (amcl's global_localization)."""
+        self.poses = self._uniform_free(self.params.max_particles)
+        self.log_w = np.full(len(self.poses), -np.log(max(len(self.poses), 1)))
+        self._restart()
+
+    def _restart(self) -> None:
+        self.force_update = True
+        self.updates_since_resample = 0
+        self.last_ess = float("inf")
+        self.log_w_slow = self.log_w_fast = None
+
+    def set_map(self, field: LikelihoodField) -> None:
+        """New map: keep the particles (amcl re-initialises only on request)."""
+        self.field = field
+
+    def reset_odometry(self) -> None:
+        """Forget the odometry reference (TF jumped back): next scan is a sensor-only update."""
+        self.last_odom = None
+        self.force_update = True
+
+    def _uniform_free(self, n: int) -> np.ndarray:
+        free = self.field.free_cells
+        if free.size == 0:
+            raise ValueError("map has no free cell to spread particles over")
+        pick = free[self.rng.integers(0, free.size, n)]
+        xy = self.field.cell_centres(pick) + (self.rng.random((n, 2)) - 0.5) * \
+            self.field.resolution
+        yaw = self.rng.uniform(-np.pi, np.pi, n)
+        return np.column_stack([xy, yaw])
+
+    # -- filter steps ---------------------------------------------------------------
+    def predict(self, odom_prev: Sequence[float], odom_now: Sequence[float]) -> None:
+        """Moves every particle by the odometry increment, with sampled noise."""
+        p = self.params
+        dx, dy = odom_now[0] - odom_prev[0], odom_now[1] - odom_prev[1]
+        trans = float(np.hypot(dx, dy))
+        rot1 = float(normalize_angle(np.arctan2(dy, dx) - odom_prev[2])) if trans > 0.01 else 0.0
+        rot2 = float(normalize_angle(odom_now[2] - odom_prev[2] - rot1))
+        # driving backwards is a small rotation plus negative motion, not a half turn
+        rot1_n = min(abs(rot1), abs(float(normalize_angle(rot1 - np.pi))))
+        rot2_n = min(abs(rot2), abs(float(normalize_angle(rot2 - np.pi))))
+        n = len(self.poses)
+        sd_rot1 = np.sqrt(p.odom_alpha1 * rot1_n ** 2 + p.odom_alpha2 * trans ** 2)
+        sd_trans = np.sqrt(p.odom_alpha3 * trans ** 2 + p.odom_alpha4 * (rot1_n ** 2 + rot2_n ** 2))
+        sd_rot2 = np.sqrt(p.odom_alpha1 * rot2_n ** 2 + p.odom_alpha2 * trans ** 2)
+        r1 = rot1 - self.rng.normal(0.0, 1.0, n) * sd_rot1
+        tr = trans - self.rng.normal(0.0, 1.0, n) * sd_trans
+        r2 = rot2 - self.rng.normal(0.0, 1.0, n) * sd_rot2
+        heading = self.poses[:, 2] + r1
+        self.poses[:, 0] += tr * np.cos(heading)
+        self.poses[:, 1] += tr * np.sin(heading)
+        self.poses[:, 2] = normalize_angle(heading + r2)
+
+    def update_sensor(self, endpoints_base: np.ndarray) -> float:
+        """Weights the particles by the scan; returns the mean log-likelihood per particle.
+
+        ``endpoints_base`` (B, 2) [m] are beam end points in the robot's base frame.
+        """
+        if len(endpoints_base) == 0:
+            return float("nan")
+        c, s = np.cos(self.poses[:, 2:3]), np.sin(self.poses[:, 2:3])
+        ex, ey = endpoints_base[None, :, 0], endpoints_base[None, :, 1]
+        world = np.stack([self.poses[:, 0:1] + c * ex - s * ey,
+                          self.poses[:, 1:2] + s * ex + c * ey], axis=-1)
+        log_lik = self.params.laser_beam_exponent * self.field.log_likelihood(world).sum(axis=1)
+        # a robot cannot stand inside an obstacle (nor off the map): without this, particles
+        # inside a large solid block score best, as all their beams end in occupied cells
+        log_lik[self.field.in_obstacle(self.poses[:, :2])] += OBSTACLE_LOG_PENALTY
+        self.log_w = self.log_w + log_lik
+        self.log_w -= np.logaddexp.reduce(self.log_w)
+        self.last_ess = self.effective_sample_size()
+        self._track_likelihood(log_lik)
+        return float(log_lik.mean())
+
+    def _track_likelihood(self, log_lik: np.ndarray) -> None:
+        p = self.params
+        if p.recovery_alpha_slow <= 0.0 or p.recovery_alpha_fast <= 0.0:
+            return
+        log_avg = float(np.logaddexp.reduce(log_lik) - np.log(len(log_lik)))
+        if self.log_w_slow is None:
+            self.log_w_slow = self.log_w_fast = log_avg
+            return
+        self.log_w_slow = float(np.logaddexp(np.log1p(-p.recovery_alpha_slow) + self.log_w_slow,
+                                             np.log(p.recovery_alpha_slow) + log_avg))
+        self.log_w_fast = float(np.logaddexp(np.log1p(-p.recovery_alpha_fast) + self.log_w_fast,
+                                             np.log(p.recovery_alpha_fast) + log_avg))
+
+    def resample(self) -> None:
+        """Low-variance resampling, sample size adapted by KLD, random-particle injection."""
+        p = self.params
+        w = np.exp(self.log_w - self.log_w.max())
+        idx = low_variance_indices(w, p.max_particles, self.rng)
+        cand = self.poses[self.rng.permutation(idx)]  # random order: prefixes are fair samples
+        n = self._kld_size(cand)
+        new = cand[:n].copy()
+        if self.log_w_slow is not None and self.log_w_fast is not None:
+            p_random = max(0.0, 1.0 - float(np.exp(self.log_w_fast - self.log_w_slow)))
+            n_random = int(self.rng.binomial(n, p_random)) if p_random > 0 else 0
+            if n_random > 0:
+                new[:n_random] = self._uniform_free(n_random)
+                self.log_w_slow = self.log_w_fast = None  # restart the averages after injection
+        self.poses = new
+        self.log_w = np.full(n, -np.log(n))
+
+    def _kld_size(self, cand: np.ndarray) -> int:
+        p = self.params
+        bx = np.floor(cand[:, 0] / p.kld_bin_xy).astype(np.int64)
+        by = np.floor(cand[:, 1] / p.kld_bin_xy).astype(np.int64)
+        bt = np.floor(cand[:, 2] / p.kld_bin_yaw).astype(np.int64)
+        keys = (bx * 1_000_003 + by) * 1_009 + bt
+        _, first = np.unique(keys, return_index=True)
+        new_bin = np.zeros(len(cand), dtype=np.int64)
+        new_bin[first] = 1
+        k = np.cumsum(new_bin)
+        need = np.clip(kld_sample_count(k, p.kld_err, p.kld_z), p.min_particles, p.max_particles)
+        enough = np.flatnonzero(np.arange(1, len(cand) + 1) >= need)
+        return int(enough[0] + 1) if enough.size else len(cand)
+
+    def process(self, odom_pose: Sequence[float], endpoints_base: np.ndarray) -> bool:
+        """One scan with the odometry pose at its time stamp; returns True if filtered.
+
+        As amcl: the filter runs only after ``update_min_d``/``update_min_a`` of motion (or
+        on the first scan / after a reset), and resamples every ``resample_interval`` runs.
+        """
+        if not self.initialized:
+            return False
+        odom_pose = np.asarray(odom_pose, dtype=float)
+        if self.last_odom is not None:
+            d = odom_pose - self.last_odom
+            moved = (abs(d[0]) > self.params.update_min_d or abs(d[1]) > self.params.update_min_d
+                     or abs(float(normalize_angle(d[2]))) > self.params.update_min_a)
+            if not moved and not self.force_update:
+                return False
+            self.predict(self.last_odom, odom_pose)
+        self.last_odom = odom_pose
+        if len(endpoints_base) == 0:
+            return False
+        self.update_sensor(endpoints_base)
+        self.force_update = False
+        self.updates_since_resample += 1
+        if self.updates_since_resample >= max(self.params.resample_interval, 1):
+            self.resample()
+            self.updates_since_resample = 0
+        return True
+
+    def request_nomotion_update(self) -> None:
+        """The next scan updates the filter although the robot did not move."""
+        self.force_update = True
+
+    # -- estimate -------------------------------------------------------------------
+    def estimate(self) -> Tuple[np.ndarray, np.ndarray]:
+        """Weighted mean pose (3,) and covariance (3, 3) of x [m], y [m], yaw [rad].
+
+        The covariance is the weighted spread of the cloud, times (1 + 1/ESS) for the Monte
+        Carlo error of the weighted mean (ESS = effective sample size of the last sensor
+        update), plus the variance of a uniform position within one map cell (res^2 / 12)
+        on x and y, which a grid map cannot resolve.
+        """
+        w = np.exp(self.log_w - self.log_w.max())
+        w /= w.sum()
+        mx, my = float(w @ self.poses[:, 0]), float(w @ self.poses[:, 1])
+        myaw = float(np.arctan2(w @ np.sin(self.poses[:, 2]), w @ np.cos(self.poses[:, 2])))
+        dev = np.column_stack([self.poses[:, 0] - mx, self.poses[:, 1] - my,
+                               normalize_angle(self.poses[:, 2] - myaw)])
+        cov = (dev * w[:, None]).T @ dev
+        ess = max(min(self.last_ess, self.effective_sample_size()), 1.0)
+        cov *= 1.0 + 1.0 / ess
+        cov[0, 0] += self.field.resolution ** 2 / 12.0
+        cov[1, 1] += self.field.resolution ** 2 / 12.0
+        return np.array([mx, my, myaw]), cov
+
+    def effective_sample_size(self) -> float:
+        w = np.exp(self.log_w - self.log_w.max())
+        w /= w.sum()
+        return float(1.0 / np.sum(w ** 2))
+
+
+def map_to_odom(pose_map: Sequence[float], pose_odom: Sequence[float]) -> np.ndarray:
+    """The map->odom transform that puts the base at ``pose_map`` given its odometry pose."""
+    return compose(pose_map, inverse(pose_odom))
+
+
+def covariance_6x6(cov3: np.ndarray) -> list:
+    """Row-major 6x6 (x, y, z, roll, pitch, yaw) covariance as in PoseWithCovariance."""
+    out = np.zeros((6, 6))
+    sel = [0, 1, 5]
+    out[np.ix_(sel, sel)] = cov3
+    return out.ravel().tolist()

@@ -1,0 +1,345 @@
+"""The move_base state machine: plan, follow, recover, succeed or abort (no ROS).
+
+``Navigator.step`` runs once per control period with the robot pose in the map frame and
+the laser points in the base frame, and returns the velocity command and the goal status.
+
+* A new goal is planned at once. Goals off the map or with an invalid orientation are
+  aborted at once; a goal the planner cannot reach is re-planned on every map update (and
+  at least once a second) and aborted when ``planner_patience`` has passed without a plan.
+* The path is re-planned when the map changes (at most at ``planner_frequency`` if > 0)
+  and periodically at ``planner_frequency``.
+* Recovery, when the controller, once blocked by the laser, has not got
+  ``oscillation_distance`` away from there within ``controller_patience``:
+  (1) re-plan with the laser obstacles marked in the costmap; (2) if blocked again, turn a
+  full circle on the spot (``clearing_rotation_allowed``), gathering laser obstacles, and
+  re-plan with them; (3) if still blocked, abort. The stage is reset once the robot has
+  made ``progress_reset_distance`` of progress.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, List, Optional, Sequence
+
+import numpy as np
+
+from ascc_navigation import controller as ctl
+from ascc_navigation import planner as pln
+from ascc_navigation.grid import GridInfo
+from ascc_navigation.pose2d import transform_points, z_axis_from_quaternion
+from ascc_navigation.pose2d import yaw_from_quaternion as _yaw
+
+IDLE = "idle"
+ACTIVE = "active"
+SUCCEEDED = "succeeded"
+ABORTED = "aborted"
+
+
+def goal_yaw(x: float, y: float, z: float, w: float) -> float:
+    """Yaw [rad] of a goal's quaternion; ValueError if it is not a usable planar orientation.
+
+    As move_base: a (near) zero quaternion, or one whose z axis is not vertical, is invalid.
+    """
+    q = np.array([x, y, z, w], dtype=float)
+    if not np.all(np.isfinite(q)):
+        raise ValueError("goal orientation has NaN/inf components")
+    norm = float(np.linalg.norm(q))
+    if norm < 1e-6:
+        raise ValueError("goal orientation is a zero quaternion")
+    q /= norm
+    if z_axis_from_quaternion(*q)[2] < 1.0 - 1e-3:
+        raise ValueError("goal orientation is not a rotation about the vertical axis")
+    return _yaw(*q)
+
+
+@dataclass
+class NavParams:
+    """Names as move_base's parameters."""
+
+    planner_frequency: float = 0.0  # [Hz] periodic re-planning; 0 = on map updates only
+    planner_patience: float = 5.0  # [s] without a plan before the goal is aborted
+    controller_patience: float = 3.0  # [s] blocked before a recovery stage starts
+    oscillation_distance: float = 0.3  # [m] of travel that ends a blocked episode
+    recovery_behavior_enabled: bool = True
+    clearing_rotation_allowed: bool = True
+    obstacle_range: float = 2.5  # [m] laser points nearer than this are marked on re-plans
+    progress_reset_distance: float = 0.5  # [m] of travel that resets the recovery stage
+    rotation_speed: float = 0.8  # [rad/s] of the clearing rotation
+    replan_retry_period: float = 1.0  # [s] between attempts while no plan is found
+
+
+@dataclass
+class Step:
+    v: float = 0.0  # [m/s]
+    w: float = 0.0  # [rad/s]
+    status: str = IDLE
+    reason: str = ""  # why the goal was aborted, or what the navigator is doing
+    new_path: Optional[np.ndarray] = None  # (N, 2) [m] when a plan was just made
+    controller_state: str = ""
+
+
+@dataclass
+class _Goal:
+    xy: np.ndarray
+    yaw: Optional[float]
+    received: float  # [s]
+
+
+@dataclass
+class _MapData:
+    grid: np.ndarray
+    info: GridInfo
+    stamp: int  # increases with every update
+
+
+class Navigator:
+    def __init__(self, planner_params: Optional[pln.PlannerParams] = None,
+                 controller_params: Optional[ctl.ControllerParams] = None,
+                 params: Optional[NavParams] = None):
+        self.planner_params = planner_params or pln.PlannerParams()
+        self.params = params or NavParams()
+        self.follower = ctl.PathFollower(controller_params)
+        self.map: Optional[_MapData] = None
+        self.goal: Optional[_Goal] = None
+        self.status = IDLE
+        self._reset_goal_state()
+
+    def _reset_goal_state(self) -> None:
+        self.have_path = False
+        self.planned_map = -1  # map stamp the path was planned on
+        self.last_plan_time = -np.inf
+        self.plan_fail_since: Optional[float] = None
+        self.last_plan_error = ""
+        self.blocked_since: Optional[float] = None
+        self.blocked_at = np.zeros(2)
+        self.recovery_stage = 0
+        self.recovery_anchor: Optional[np.ndarray] = None
+        self.rotating_left = 0.0  # [rad] of clearing rotation still to turn
+        self.rotation_obstacles: List[np.ndarray] = []
+
+    # -- inputs ---------------------------------------------------------------------
+    def set_map(self, grid: np.ndarray, info: GridInfo) -> None:
+        """A new or updated map (int8 -1/0/100 grid); the path is re-planned on it."""
+        stamp = 0 if self.map is None else self.map.stamp + 1
+        self.map = _MapData(np.asarray(grid), info, stamp)
+
+    def set_goal(self, x: float, y: float, yaw: Optional[float], now: float) -> None:
+        """A new goal (map frame) replaces any active one."""
+        self.goal = _Goal(np.array([x, y], dtype=float), yaw, now)
+        self.status = ACTIVE
+        self._reset_goal_state()
+        self.follower.set_path(np.zeros((0, 2)))
+
+    def cancel(self) -> None:
+        """Drops the goal; the caller sends a zero command."""
+        self.goal = None
+        self.status = IDLE
+        self.follower.reset()
+        self._reset_goal_state()
+
+    # -- helpers --------------------------------------------------------------------
+    def _abort(self, reason: str) -> Step:
+        self.status = ABORTED
+        self.goal = None
+        self.follower.reset()
+        return Step(0.0, 0.0, ABORTED, reason)
+
+    def _world_obstacles(self, pose: Sequence[float], obstacles: Optional[np.ndarray]):
+        if obstacles is None or len(obstacles) == 0:
+            return np.zeros((0, 2))
+        near = obstacles[np.hypot(obstacles[:, 0], obstacles[:, 1]) < self.params.obstacle_range]
+        return transform_points(pose, near)
+
+    def _plan(self, pose: Sequence[float], now: float,
+              marks: Optional[np.ndarray]) -> pln.PlanResult:
+        m = self.map
+        costmap = pln.Costmap(m.grid, m.info, self.planner_params, marks)
+        result = pln.plan(costmap, pose[:2], self.goal.xy)
+        self.last_plan_time = now
+        self.planned_map = m.stamp
+        return result
+
+    def _replan_due(self, now: float) -> bool:
+        f = self.params.planner_frequency
+        if not self.have_path:
+            return now - self.last_plan_time >= self.params.replan_retry_period \
+                or self.planned_map != self.map.stamp
+        if f > 0.0 and now - self.last_plan_time >= 1.0 / f:
+            return True
+        return self.planned_map != self.map.stamp
+
+    # -- the cycle ------------------------------------------------------------------
+    def step(self, now: float, pose: Sequence[float], obstacles: Optional[np.ndarray],
+             dt: float) -> Step:
+        """One control cycle. ``pose`` (x, y, yaw) in the map frame, ``obstacles`` (K, 2)
+        laser points in the base frame, ``dt`` [s] since the previous cycle."""
+        if self.status != ACTIVE or self.goal is None:
+            self.follower.reset()
+            return Step(0.0, 0.0, self.status)
+        if self.rotating_left > 0.0:
+            return self._rotate(now, pose, obstacles, dt)
+        new_path, abort = self._update_plan(now, pose, obstacles)
+        if abort:
+            return self._abort(abort)
+        if not self.have_path:  # nothing to follow yet: stand still, keep trying
+            self.follower.reset()
+            return Step(0.0, 0.0, ACTIVE, "planning: " + self.last_plan_error)
+        # a failed re-plan keeps the previous path until planner_patience runs out
+        cmd = self.follower.compute(pose, obstacles, dt)
+        if cmd.state == ctl.GOAL_REACHED:
+            self.status = SUCCEEDED
+            self.goal = None
+            return Step(0.0, 0.0, SUCCEEDED, "goal reached", new_path, cmd.state)
+        self._track_progress(pose)
+        if self._stuck(now, pose, cmd.state == ctl.BLOCKED):
+            return self._recover(now, pose, new_path)
+        return Step(cmd.v, cmd.w, ACTIVE, cmd.state, new_path, cmd.state)
+
+    def _stuck(self, now: float, pose: Sequence[float], blocked: bool) -> bool:
+        """True once the robot, blocked at some point, has not got ``oscillation_distance``
+        away from there within ``controller_patience`` (inching up to an obstacle and
+        stopping again counts as blocked all along)."""
+        if blocked and self.blocked_since is None:
+            self.blocked_since = now
+            self.blocked_at = np.asarray(pose[:2], dtype=float)
+        if self.blocked_since is None:
+            return False
+        if np.hypot(*(np.asarray(pose[:2]) - self.blocked_at)) \
+                >= self.params.oscillation_distance:
+            self.blocked_since = None
+            return False
+        return now - self.blocked_since >= self.params.controller_patience
+
+    def _update_plan(self, now: float, pose: Sequence[float], obstacles: Optional[np.ndarray]):
+        """Re-plans when due; returns (new path or None, abort reason or "")."""
+        new_path = None
+        if self.map is None:
+            self.last_plan_error = "waiting for a map"
+            self.plan_fail_since = self.goal.received
+        elif self._replan_due(now):
+            marks = self._world_obstacles(pose, obstacles) if self.recovery_stage else None
+            result = self._plan(pose, now, marks)
+            if result.failure == pln.INVALID_GOAL:
+                return None, result.reason
+            if result.ok:
+                self.plan_fail_since = None
+                self.have_path = True
+                new_path = result.path
+                self.follower.set_path(result.path, self.goal.yaw, keep_goal_state=True)
+            else:
+                self.last_plan_error = result.reason
+                if self.plan_fail_since is None:
+                    self.plan_fail_since = now
+        if self.plan_fail_since is not None \
+                and now - self.plan_fail_since >= self.params.planner_patience:
+            return new_path, "no plan for %.1f s: %s" % (now - self.plan_fail_since,
+                                                         self.last_plan_error)
+        return new_path, ""
+
+    def _track_progress(self, pose: Sequence[float]) -> None:
+        if self.recovery_anchor is None:
+            return
+        if np.hypot(*(np.asarray(pose[:2]) - self.recovery_anchor)) \
+                >= self.params.progress_reset_distance:
+            self.recovery_stage = 0
+            self.recovery_anchor = None
+
+    def _recover(self, now: float, pose: Sequence[float], new_path) -> Step:
+        p = self.params
+        self.blocked_since = None
+        self.follower.reset()
+        if not p.recovery_behavior_enabled or self.recovery_stage >= 2 \
+                or (self.recovery_stage == 1 and not p.clearing_rotation_allowed):
+            return self._abort("blocked by an obstacle for %.1f s; recovery behaviours "
+                               "failed" % p.controller_patience)
+        self.recovery_stage += 1
+        self.recovery_anchor = np.asarray(pose[:2], dtype=float)
+        if self.recovery_stage == 1:
+            self.planned_map = -1  # re-plan now, with the laser obstacles marked
+            return Step(0.0, 0.0, ACTIVE, "recovery: re-planning around laser obstacles",
+                        new_path, ctl.BLOCKED)
+        self.rotating_left = 2.0 * np.pi
+        self.rotation_obstacles = []
+        return Step(0.0, 0.0, ACTIVE, "recovery: clearing rotation", new_path, ctl.ROTATING)
+
+    def _rotate(self, now: float, pose: Sequence[float], obstacles, dt: float) -> Step:
+        """The clearing rotation; re-plans with everything seen once it is done."""
+        self.rotation_obstacles.append(self._world_obstacles(pose, obstacles))
+        w = self.params.rotation_speed
+        self.rotating_left -= w * dt
+        if self.rotating_left > 0.0:
+            return Step(0.0, w, ACTIVE, "recovery: clearing rotation", None, ctl.ROTATING)
+        self.rotating_left = 0.0
+        marks = np.concatenate(self.rotation_obstacles + [np.zeros((0, 2))])
+        self.rotation_obstacles = []
+        result = self._plan(pose, now, marks)
+        if not result.ok:
+            return self._abort("no path after the clearing rotation: %s" % result.reason)
+        self.follower.set_path(result.path, self.goal.yaw, keep_goal_state=True)
+        self.have_path = True
+        return Step(0.0, 0.0, ACTIVE, "recovery: re-planned", result.path, ctl.ROTATING)
+
+    @property
+    def path(self) -> np.ndarray:
+        return self.follower.path
+
+    def describe(self) -> dict:
+        """State for logs and tests."""
+        return {"status": self.status, "recovery_stage": self.recovery_stage,
+                "have_path": self.have_path, "last_plan_error": self.last_plan_error}
+
+
+# (dataclass, field, move_base parameter name) for every parameter the stand-in reads
+_MOVE_BASE_NAMES = (
+    ("nav", "planner_frequency", "planner_frequency"),
+    ("nav", "planner_patience", "planner_patience"),
+    ("nav", "controller_patience", "controller_patience"),
+    ("nav", "oscillation_distance", "oscillation_distance"),
+    ("nav", "recovery_behavior_enabled", "recovery_behavior_enabled"),
+    ("nav", "clearing_rotation_allowed", "clearing_rotation_allowed"),
+    ("nav", "obstacle_range", "global_costmap/obstacle_layer/obstacle_range"),
+    ("nav", "rotation_speed", "stand_in/rotation_speed"),
+    ("planner", "allow_unknown", "NavfnROS/allow_unknown"),
+    ("planner", "default_tolerance", "NavfnROS/default_tolerance"),
+    ("planner", "robot_radius", "global_costmap/robot_radius"),
+    ("planner", "footprint_padding", "global_costmap/footprint_padding"),
+    ("planner", "inflation_radius", "global_costmap/inflation_layer/inflation_radius"),
+    ("planner", "cost_scaling_factor", "global_costmap/inflation_layer/cost_scaling_factor"),
+    ("planner", "resolution", "stand_in/planner_resolution"),
+    ("planner", "inflation_weight", "stand_in/inflation_weight"),
+    ("planner", "unknown_cost", "stand_in/unknown_cost"),
+    ("controller", "robot_radius", "global_costmap/robot_radius"),
+    ("controller", "lookahead", "stand_in/lookahead"),
+    ("controller", "rotate_in_place_angle", "stand_in/rotate_in_place_angle"),
+    ("controller", "blocked_turn_angle", "stand_in/blocked_turn_angle"),
+    ("controller", "obstacle_margin", "stand_in/obstacle_margin"),
+    ("controller", "obstacle_horizon", "stand_in/obstacle_horizon"),
+) + tuple(("controller", n, "TrajectoryPlannerROS/" + n) for n in (
+    "max_vel_x", "min_vel_x", "max_vel_theta", "min_in_place_vel_theta", "acc_lim_x",
+    "acc_lim_theta", "xy_goal_tolerance", "yaw_goal_tolerance"))
+
+
+def params_from_move_base(get: Callable[[str, object], object]):
+    """(PlannerParams, ControllerParams, NavParams) from move_base-named parameters.
+
+    ``get(name, default)`` returns the parameter ``name`` (e.g. "NavfnROS/allow_unknown",
+    relative to the move_base namespace) or ``default``.
+    """
+    out = {"planner": pln.PlannerParams(), "controller": ctl.ControllerParams(),
+           "nav": NavParams()}
+    for group, attr, name in _MOVE_BASE_NAMES:
+        obj = out[group]
+        default = getattr(obj, attr)
+        setattr(obj, attr, type(default)(get(name, default)))
+    return out["planner"], out["controller"], out["nav"]
+
+
+def nested_getter(tree: dict) -> Callable[[str, object], object]:
+    """A ``get(name, default)`` over a nested dict (a YAML file), names split at '/'."""
+    def get(name: str, default: object) -> object:
+        node: object = tree
+        for part in name.split("/"):
+            if not isinstance(node, dict) or part not in node:
+                return default
+            node = node[part]
+        return node
+    return get

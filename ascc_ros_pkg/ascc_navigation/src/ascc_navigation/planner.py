@@ -1,0 +1,312 @@
+"""Global path planning on an inflated occupancy grid, as navfn does for move_base (no ROS).
+
+1. ``Costmap``: the occupancy grid is reduced to a coarser planning grid (``resolution``,
+   0.1 m by default). Each planning cell keeps the smallest clearance [m] (distance to the
+   nearest occupied map cell, from ``cv2.distanceTransform`` on the full-resolution map) of
+   the map cells it covers, so the coarse grid never hides an obstacle. Cells where the
+   robot's circle grown by ``footprint_padding`` could touch an obstacle's surface (radius +
+   padding + 1.2 map cells of centre distance) are lethal; within ``inflation_radius`` the
+   step cost grows as costmap_2d's inflation layer does, exp(-cost_scaling_factor (d - r)).
+   Unknown cells are allowed (navfn's ``allow_unknown``) at an extra cost.
+2. ``plan``: the cost-to-goal of every cell on the 8-connected grid, by chain relaxation.
+   Along one straight line of cells the recurrence d[i] = min(d[i], d[i-1] + e[i-1]) has
+   the closed form d = S + cummin(d - S) with S the running sum of the step costs e, so a
+   whole line is relaxed with two numpy calls; lines in the 8 directions (rows, columns and
+   both diagonals, the diagonals as strided views of a sheared buffer) are relaxed in turn
+   until nothing changes. That is Bellman-Ford with whole straight runs per round: exact
+   (same costs as Dijkstra), and the rounds needed are the turns of the longest optimal
+   path, not its length. Integer step costs keep the sums exact, so "nothing changes" is
+   detected exactly. The path is then read off by steepest descent from the start.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+
+from ascc_navigation.grid import GridInfo
+
+OCCUPIED_MIN = 65  # occupancy value [0..100] from which a map cell is an obstacle
+UNIT = 1000  # integer cost of one straight step over a free cell
+DIAG = 1414  # integer cost of one diagonal step over a free cell (sqrt 2 * UNIT)
+LETHAL = 10 ** 12  # step cost into a lethal cell; any sum above it means "no way through"
+INF = 2 ** 62  # cost-to-goal of cells not reached (stays far from int64 overflow)
+
+
+@dataclass
+class PlannerParams:
+    """Planner parameters; the ROS names are move_base's (see the package README)."""
+
+    robot_radius: float = 0.17  # [m] iRobot Create: 0.33 m diameter
+    footprint_padding: float = 0.05  # [m] extra clearance planned paths keep to obstacles
+    inflation_radius: float = 0.55  # [m] costs fall to zero at this clearance
+    cost_scaling_factor: float = 10.0  # [1/m] decay of the inflation cost
+    inflation_weight: float = 5.0  # extra step cost (x free step) right at the robot radius
+    allow_unknown: bool = True  # plan through unknown cells (explore needs it)
+    unknown_cost: float = 0.5  # extra step cost (x free step) of an unknown cell
+    resolution: float = 0.1  # [m] planning grid resolution (>= map resolution)
+    default_tolerance: float = 0.2  # [m] an unreachable goal may move this far to a free cell
+    max_rounds: int = 400  # relaxation rounds at most (a safety net, see ``plan``)
+
+
+INVALID_GOAL = "invalid_goal"  # off the map, or in an obstacle with no free cell near
+INVALID_START = "invalid_start"  # the robot is off the map
+UNREACHABLE = "unreachable"  # no path on the current costmap
+
+
+@dataclass
+class PlanResult:
+    ok: bool
+    path: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (N, 2) [m] world
+    cost: float = float("inf")  # [m] equivalent path length (free-space metres)
+    reason: str = ""
+    rounds: int = 0  # relaxation rounds used
+    failure: str = ""  # INVALID_GOAL, INVALID_START or UNREACHABLE when not ok
+
+
+class Costmap:
+    """Planning grid: step costs per cell, lethal mask, world <-> cell conversions."""
+
+    def __init__(self, grid: np.ndarray, info: GridInfo, params: Optional[PlannerParams] = None,
+                 obstacles: Optional[np.ndarray] = None):
+        """``grid`` int8 (height, width) -1/0/100 on ``info``'s geometry; ``obstacles``
+        (K, 2) [m] extra obstacle points in the map frame (e.g. from the laser)."""
+        p = params or PlannerParams()
+        self.params = p
+        grid = np.asarray(grid)
+        if grid.shape != info.shape or grid.size == 0:
+            raise ValueError("occupancy grid of shape %s does not match %r" % (grid.shape, info))
+        map_resolution = info.resolution
+        occupied = grid >= OCCUPIED_MIN
+        if obstacles is not None and len(obstacles):
+            occupied = occupied.copy()
+            col, row = info.world_to_cell(obstacles[:, 0], obstacles[:, 1])
+            ok = info.contains(col, row)
+            occupied[row[ok], col[ok]] = True
+        unknown = grid < 0
+        if occupied.any():
+            clear = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2,
+                                          cv2.DIST_MASK_PRECISE) * map_resolution
+        else:
+            clear = np.full(grid.shape, np.inf, dtype=np.float32)
+        # coarse planning grid: f x f map cells per planning cell
+        f = max(1, int(round(p.resolution / map_resolution)))
+        self.factor = f
+        self.resolution = map_resolution * f
+        self.origin = (info.origin_x, info.origin_y)
+        rows, cols = -(-grid.shape[0] // f), -(-grid.shape[1] // f)
+        pad = ((0, rows * f - grid.shape[0]), (0, cols * f - grid.shape[1]))
+        clear = np.pad(clear, pad, constant_values=np.inf)
+        unknown = np.pad(unknown, pad, constant_values=True)
+        occupied = np.pad(occupied, pad, constant_values=False)
+        self.clearance = clear.reshape(rows, f, cols, f).min(axis=(1, 3))  # [m]
+        self.unknown = unknown.reshape(rows, f, cols, f).all(axis=(1, 3))
+        self.occupied = occupied.reshape(rows, f, cols, f).any(axis=(1, 3))
+        # clearance is measured between cell centres: an obstacle's surface is half a map
+        # cell nearer, and a point of a planning cell (so of a path segment) can be up to
+        # half a map cell's diagonal from the nearest map-cell centre it was pooled from
+        self.lethal = self.clearance < (p.robot_radius + p.footprint_padding
+                                        + map_resolution * (0.5 + np.sqrt(0.5)))
+        if not p.allow_unknown:
+            self.lethal |= self.unknown
+        d = np.maximum(self.clearance - p.robot_radius, 0.0)
+        infl = np.where(self.clearance < p.inflation_radius,
+                        p.inflation_weight * np.exp(-p.cost_scaling_factor * d), 0.0)
+        self.weight = 1.0 + infl + p.unknown_cost * self.unknown  # x free step cost
+
+    @property
+    def shape(self) -> Tuple[int, int]:
+        return self.lethal.shape
+
+    def to_cell(self, xy: Sequence[float]) -> Tuple[int, int]:
+        """(row, col) of world point ``xy`` [m] (may be outside the grid)."""
+        return (int(np.floor((xy[1] - self.origin[1]) / self.resolution)),
+                int(np.floor((xy[0] - self.origin[0]) / self.resolution)))
+
+    def to_world(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """World coordinates (N, 2) [m] of cell centres."""
+        return np.column_stack([self.origin[0] + (np.asarray(cols) + 0.5) * self.resolution,
+                                self.origin[1] + (np.asarray(rows) + 0.5) * self.resolution])
+
+    def inside(self, cell: Tuple[int, int]) -> bool:
+        return 0 <= cell[0] < self.shape[0] and 0 <= cell[1] < self.shape[1]
+
+    def is_free_at(self, xy: Sequence[float]) -> bool:
+        """True if the robot fits (not lethal) at world point ``xy``."""
+        cell = self.to_cell(xy)
+        return self.inside(cell) and not self.lethal[cell]
+
+    def nearest_free(self, cell: Tuple[int, int], radius_m: float) -> Optional[Tuple[int, int]]:
+        """The closest non-lethal cell within ``radius_m`` of ``cell``, or None."""
+        r = int(np.ceil(radius_m / self.resolution))
+        r0, r1 = max(cell[0] - r, 0), min(cell[0] + r + 1, self.shape[0])
+        c0, c1 = max(cell[1] - r, 0), min(cell[1] + r + 1, self.shape[1])
+        if r0 >= r1 or c0 >= c1:
+            return None
+        rr, cc = np.mgrid[r0:r1, c0:c1]
+        dist2 = (rr - cell[0]) ** 2 + (cc - cell[1]) ** 2
+        ok = ~self.lethal[r0:r1, c0:c1] & (dist2 <= r * r)
+        if not ok.any():
+            return None
+        i = np.argmin(np.where(ok, dist2, np.iinfo(np.int64).max))
+        return int(rr.flat[i]), int(cc.flat[i])
+
+
+def _relax_lines(d: np.ndarray, e: np.ndarray) -> None:
+    """In place: d[i] = min(d[i], min_{j<i} d[j] + e[j] + ... + e[i-1]) along axis 0."""
+    s = np.cumsum(e, axis=0)
+    s -= e  # exclusive running sum S[i] = e[0] + ... + e[i-1]
+    best = np.minimum.accumulate(d - s, axis=0)
+    best += s
+    np.minimum(d, best, out=d)
+
+
+class _Sheared:
+    """A (rows, cols) grid inside a padded buffer, with views whose columns are lines.
+
+    ``lines()`` yields, for the 8 directions, pairs (distance view, step-cost view) whose
+    axis 0 runs along straight lines of cells; padding is lethal, so lines never wrap.
+    """
+
+    def __init__(self, cost_straight: np.ndarray, cost_diag: np.ndarray):
+        rows, cols = cost_straight.shape
+        width = cols + 2 * rows
+        self.rows, self.cols, self.width = rows, cols, width
+        self.d = np.full((rows, width), INF, dtype=np.int64)
+        self.es = np.full((rows, width), LETHAL, dtype=np.int64)
+        self.ed = np.full((rows, width), LETHAL, dtype=np.int64)
+        self.es[:, rows:rows + cols] = cost_straight
+        self.ed[:, rows:rows + cols] = cost_diag
+
+    def core(self, a: np.ndarray) -> np.ndarray:
+        return a[:, self.rows:self.rows + self.cols]
+
+    def _diag(self, a: np.ndarray, sign: int) -> np.ndarray:
+        """View v[i, k] = a[i, k + sign * i + offset]: columns are diagonals."""
+        s0, s1 = a.strides
+        offset = 0 if sign > 0 else self.rows
+        base = a.ravel()[offset:]
+        return as_strided(base, shape=(self.rows, self.cols + self.rows),
+                          strides=(s0 + sign * s1, s1), writeable=True)
+
+    def lines(self):
+        d, es, ed = self.d, self.es, self.ed
+        row_d, row_e = self.core(d).T, self.core(es).T  # axis 0 along a row
+        col_d, col_e = self.core(d), self.core(es)
+        for vd, ve in ((row_d, row_e), (col_d, col_e),
+                       (self._diag(d, 1), self._diag(ed, 1)),
+                       (self._diag(d, -1), self._diag(ed, -1))):
+            yield vd, ve
+            yield vd[::-1], ve[::-1]
+
+
+def cost_to_goal(costmap: Costmap, goal: Tuple[int, int],
+                 max_rounds: int = 400) -> Tuple[np.ndarray, int]:
+    """Integer cost-to-goal (rows, cols) of every cell (>= LETHAL: unreachable), rounds."""
+    w = costmap.weight
+    cs = np.where(costmap.lethal, LETHAL, np.round(UNIT * w)).astype(np.int64)
+    cd = np.where(costmap.lethal, LETHAL, np.round(DIAG * w)).astype(np.int64)
+    transposed = cs.shape[0] > cs.shape[1]  # keep the padding (2 x rows) small
+    if transposed:
+        cs, cd, goal = cs.T, cd.T, (goal[1], goal[0])
+    grid = _Sheared(cs, cd)
+    grid.core(grid.d)[goal] = 0
+    rounds = 0
+    while rounds < max_rounds:
+        rounds += 1
+        before = grid.d.copy()
+        for vd, ve in grid.lines():
+            _relax_lines(vd, ve)
+        if np.array_equal(before, grid.d):
+            break
+    out = grid.core(grid.d).copy()
+    return (out.T if transposed else out), rounds
+
+
+_STEPS = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)])
+_STEP_UNITS = np.where(np.abs(_STEPS).sum(axis=1) == 2, DIAG, UNIT)
+
+
+def descend(dist: np.ndarray, costmap: Costmap, start: Tuple[int, int],
+            goal: Tuple[int, int]) -> np.ndarray:
+    """Cells (N, 2) from ``start`` to ``goal``: each step to the neighbour that minimises
+    step cost + cost-to-goal (the optimal policy of the converged field)."""
+    rows, cols = dist.shape
+    pad_d = np.pad(dist, 1, constant_values=INF)
+    pad_w = np.pad(np.where(costmap.lethal, np.inf, costmap.weight), 1, constant_values=np.inf)
+    cells = [start]
+    r, c = start
+    for _ in range(rows * cols):
+        if (r, c) == goal:
+            break
+        nr, nc = r + 1 + _STEPS[:, 0], c + 1 + _STEPS[:, 1]
+        total = pad_d[nr, nc] + np.round(_STEP_UNITS * pad_w[nr, nc])
+        k = int(np.argmin(total))
+        if not pad_d[nr[k], nc[k]] < dist[r, c]:
+            break  # no descent: cannot happen on a converged field; the caller checks
+        r, c = r + int(_STEPS[k, 0]), c + int(_STEPS[k, 1])
+        cells.append((r, c))
+    return np.array(cells)
+
+
+def _escape_start(costmap: Costmap, start: Tuple[int, int]) -> None:
+    """Lets the robot leave the inflated zone it stands in (cells not truly occupied)."""
+    reach = int(np.ceil((costmap.params.robot_radius + 2 * costmap.resolution)
+                        / costmap.resolution))
+    r0, r1 = max(start[0] - reach, 0), min(start[0] + reach + 1, costmap.shape[0])
+    c0, c1 = max(start[1] - reach, 0), min(start[1] + reach + 1, costmap.shape[1])
+    block = costmap.lethal[r0:r1, c0:c1]
+    soft = block & ~costmap.occupied[r0:r1, c0:c1]
+    if soft.any():
+        costmap.lethal = costmap.lethal.copy()
+        costmap.lethal[r0:r1, c0:c1] = block & ~soft
+        costmap.weight = costmap.weight.copy()
+        costmap.weight[r0:r1, c0:c1][soft] = 1.0 + costmap.params.inflation_weight
+
+
+def plan(costmap: Costmap, start_xy: Sequence[float], goal_xy: Sequence[float]) -> PlanResult:
+    """A path from ``start_xy`` to ``goal_xy`` [m], or the reason there is none."""
+    start = costmap.to_cell(start_xy)
+    goal = costmap.to_cell(goal_xy)
+    if not costmap.inside(start):
+        return PlanResult(False, reason="robot position (%.2f, %.2f) is outside the map"
+                          % (start_xy[0], start_xy[1]), failure=INVALID_START)
+    if not costmap.inside(goal):
+        return PlanResult(False, reason="goal (%.2f, %.2f) is outside the map"
+                          % (goal_xy[0], goal_xy[1]), failure=INVALID_GOAL)
+    goal_exact = True
+    if costmap.lethal[goal]:
+        moved = costmap.nearest_free(goal, costmap.params.default_tolerance)
+        if moved is None:
+            return PlanResult(False, reason="goal (%.2f, %.2f) is in an obstacle or too close "
+                              "to one (no free cell within %.2f m)"
+                              % (goal_xy[0], goal_xy[1], costmap.params.default_tolerance),
+                              failure=INVALID_GOAL)
+        goal, goal_exact = moved, False
+    if costmap.lethal[start]:
+        _escape_start(costmap, start)
+    dist, rounds = cost_to_goal(costmap, goal, costmap.params.max_rounds)
+    if dist[start] >= LETHAL:
+        return PlanResult(False, reason="no path from (%.2f, %.2f) to goal (%.2f, %.2f): the "
+                          "goal is not reachable" % (start_xy[0], start_xy[1], goal_xy[0],
+                                                     goal_xy[1]), rounds=rounds,
+                          failure=UNREACHABLE)
+    cells = descend(dist, costmap, start, goal)
+    if tuple(cells[-1]) != tuple(goal):
+        return PlanResult(False, reason="path extraction stalled", rounds=rounds,
+                          failure=UNREACHABLE)
+    pts = costmap.to_world(cells[:, 0], cells[:, 1])
+    pts[0] = start_xy[:2]
+    if goal_exact:
+        pts[-1] = goal_xy[:2]
+    return PlanResult(True, pts, float(dist[start]) / UNIT * costmap.resolution, "", rounds)
+
+
+def path_length(path: np.ndarray) -> float:
+    """Length [m] of a polyline (N, 2)."""
+    if len(path) < 2:
+        return 0.0
+    return float(np.sum(np.hypot(*np.diff(path, axis=0).T)))

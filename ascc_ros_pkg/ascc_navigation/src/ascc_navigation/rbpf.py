@@ -1,0 +1,538 @@
+"""Rao-Blackwellized particle filter SLAM in the manner of GMapping (Grisetti et al. 2007).
+
+Each particle carries a robot pose (base frame in the map frame) and its own occupancy grid.
+One filter update, given the odometry motion since the last update and a prepared scan
+(``laser.prepare_scan``):
+
+1. motion: every particle draws a pose from the odometry motion model (``srr, srt, str, stt``);
+2. scan matching: every particle's pose is refined by hill climbing (gmapping's six moves,
+   steps ``lstep``/``astep`` halved ``iterations`` times) on the match score
+   sum_b exp(-d_b^2 / (2 sigma^2)) minus a motion prior motion_prior * |x - x_sampled|^2
+   (Mahalanobis, motion-model covariance); d_b is the distance from beam b's end point to the
+   nearest occupied cell of the particle's *own* map, bilinearly interpolated in a distance
+   field capped at ``match_radius``. Beams longer than maxUrange - motion - new_area_margin
+   are left out: they reach past what the previous scan could see;
+3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, match_radius)^2 / (2 lsigma^2);
+4. pose entropy H = -sum w_i log w_i of the normalised weights (published by the node);
+5. selective resampling when N_eff = 1 / sum w_i^2 < resampleThreshold * N (low variance);
+6. map update: every particle registers the scan at its pose into its map.
+
+Maps use gmapping's cell model: per cell a count of visits and of hits; a cell is unknown
+until visited and occupied iff hits/visits > occ_thresh. The counts are uint8 stacks of shape
+(N, H, W) (two bytes per cell and particle); when a count would overflow, both counts of that
+cell are halved, which keeps the ratio and slowly forgets old evidence. The grid grows (whole
+cells, origin kept on the lattice) whenever a scan reaches beyond it.
+
+Everything is vectorised over particles and beams: the free space of all particles is filled
+with one ``cv2.fillPoly`` call on a stack of windows, the likelihood fields of all particles
+come from one ``cv2.distanceTransform`` call, and scan matching scores all particles'
+candidate poses with four gathers (bilinear) per hill-climbing step. No ROS imports.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+import cv2
+import numpy as np
+
+from ascc_navigation.grid import GridInfo, occupancy_from_counts
+from ascc_navigation.laser import PreparedScan
+from ascc_navigation.pose2d import compose, normalize_angle
+
+COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
+FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
+MAX_CLIMB_STEPS = 60  # safety cap on hill-climbing steps per update (all particles together)
+# Hill-climbing moves in the map frame: +-x, +-y (times lstep), +-theta (times astep).
+_MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
+                  dtype=float)
+
+
+@dataclass
+class RbpfConfig:
+    """Filter parameters; names follow gmapping's ROS parameters (in brackets) and units."""
+
+    particles: int = 30             # [particles] number of particles
+    delta: float = 0.05             # [delta] cell size [m]
+    xmin: float = -10.0             # [xmin..ymax] initial map extent [m] (grows as needed)
+    ymin: float = -10.0
+    xmax: float = 10.0
+    ymax: float = 10.0
+    sigma: float = 0.05             # [sigma] std [m] of the end-point match score
+    kernel_size: int = 1            # [kernelSize] match radius [cells], at least 3 sigma
+    lstep: float = 0.05             # [lstep] initial translation step of the matcher [m]
+    astep: float = 0.05             # [astep] initial rotation step of the matcher [rad]
+    iterations: int = 5             # [iterations] step halvings of the matcher
+    lsigma: float = 0.075           # [lsigma] std [m] of the beam likelihood
+    ogain: float = 3.0              # [ogain] divides the log-likelihood (smooths weights)
+    minimum_score: float = 0.0      # [minimumScore] below it the odometry pose is kept
+    srr: float = 0.1                # [srr] translation noise per metre of translation
+    srt: float = 0.2                # [srt] rotation noise [rad] per metre of translation
+    str: float = 0.1                # [str] translation noise [m] per radian of rotation
+    stt: float = 0.2                # [stt] rotation noise per radian of rotation
+    resample_threshold: float = 0.5  # [resampleThreshold] N_eff/N below which to resample
+    occ_thresh: float = 0.25        # [occ_thresh] hits/visits above which a cell is occupied
+    grow_margin: float = 2.0        # extra map [m] added on a side when the map grows
+    search_margin: float = 0.5      # [m] how far the matcher may move a pose (window size)
+    # Not in gmapping: the matcher maximises score - motion_prior * |x - x_sampled|^2_Sigma,
+    # Sigma from the motion model (floored at prior_min_xy/prior_min_theta), so a pose cannot
+    # slide along a direction the scan does not constrain (corridors); 0 disables it.
+    motion_prior: float = 1.0       # [beams per sigma^2]
+    prior_min_xy: float = 0.02      # [m]
+    prior_min_theta: float = 0.02   # [rad]
+    # Not in gmapping: beams longer than maxUrange - (distance moved + this margin) are not
+    # matched. They reach beyond what the previous scan could see, i.e. beyond the mapped part
+    # of a wall, and would pull the pose back onto it: corridors would come out short.
+    new_area_margin: float = 0.1    # [m]
+
+    def validate(self) -> None:
+        if self.particles < 1:
+            raise ValueError("particles must be >= 1")
+        for name in ("delta", "sigma", "lstep", "astep", "lsigma", "ogain"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError("%s must be > 0" % name)
+        if not (self.xmax > self.xmin and self.ymax > self.ymin):
+            raise ValueError("xmin..xmax and ymin..ymax must be non-empty ranges")
+        if not 0.0 <= self.occ_thresh < 1.0:
+            raise ValueError("occ_thresh must be in [0, 1)")
+
+    @property
+    def match_radius(self) -> float:
+        """Distance [m] beyond which a beam end point has no match (score 0)."""
+        return max(self.kernel_size * self.delta, 3.0 * self.sigma)
+
+
+@dataclass
+class UpdateStats:
+    """What one filter update did (for logging and benchmarks)."""
+
+    entropy: float = 0.0       # pose entropy [nats] of the normalised weights
+    neff: float = 0.0          # effective sample size before resampling
+    resampled: bool = False
+    best: int = 0              # index of the best particle after the update
+    mean_score: float = 0.0    # mean match score over particles [beams]
+    matched: int = 0           # particles whose matched pose was accepted
+    grown: bool = False        # the map grew
+
+
+def normalized_weights(log_w: np.ndarray) -> np.ndarray:
+    w = np.exp(log_w - np.max(log_w))
+    return w / w.sum()
+
+
+def weight_entropy(weights: np.ndarray) -> float:
+    """Shannon entropy [nats] of normalised weights (0 for one particle, log N if uniform)."""
+    w = weights[weights > 0.0]
+    return float(-(w * np.log(w)).sum())
+
+
+def effective_sample_size(weights: np.ndarray) -> float:
+    return float(1.0 / np.sum(weights * weights))
+
+
+def low_variance_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Systematic resampling: indices of the surviving particles (len N, sorted)."""
+    n = weights.size
+    positions = (rng.random() + np.arange(n)) / n
+    cumulative = np.cumsum(weights)
+    cumulative[-1] = 1.0
+    return np.searchsorted(cumulative, positions, side="right").clip(0, n - 1)
+
+
+def motion_noise(delta: np.ndarray, cfg: RbpfConfig) -> Tuple[float, float]:
+    """Std of the odometry error for the increment ``delta`` = (dx, dy, dtheta):
+      sigma_xy    = srr * |d| + str * |dtheta|   [m] (on dx and on dy)
+      sigma_theta = stt * |dtheta| + srt * |d|   [rad], with d = hypot(dx, dy).
+    """
+    dist = math.hypot(delta[0], delta[1])
+    rot = abs(float(normalize_angle(delta[2])))
+    return cfg.srr * dist + cfg.str * rot, cfg.stt * rot + cfg.srt * dist
+
+
+def sample_motion(poses: np.ndarray, delta: np.ndarray, cfg: RbpfConfig,
+                  rng: np.random.Generator) -> np.ndarray:
+    """Odometry motion model: apply the odometry increment ``delta`` (dx, dy, dtheta in the
+    previous robot frame) to every particle with Gaussian noise of ``motion_noise`` stds."""
+    n = poses.shape[0]
+    s_xy, s_th = motion_noise(delta, cfg)
+    noisy = np.empty((n, 3))
+    noisy[:, 0] = delta[0] + s_xy * rng.standard_normal(n)
+    noisy[:, 1] = delta[1] + s_xy * rng.standard_normal(n)
+    noisy[:, 2] = delta[2] + s_th * rng.standard_normal(n)
+    return compose(poses, noisy)
+
+
+def _halve_full(counts_a: np.ndarray, counts_b: np.ndarray, full: np.ndarray) -> None:
+    """In the gathered counts, halve both where ``full`` (keeps hits/visits, frees headroom)."""
+    counts_a[full] //= 2
+    counts_b[full] //= 2
+
+
+class ParticleMaps:
+    """Stacked per-particle count grids (hits, visits), shape (N, H, W) uint8, on ``info``."""
+
+    def __init__(self, n: int, info: GridInfo):
+        self.info = info
+        self.hits = np.zeros((n,) + info.shape, dtype=np.uint8)
+        self.visits = np.zeros((n,) + info.shape, dtype=np.uint8)
+
+    @property
+    def n(self) -> int:
+        return self.hits.shape[0]
+
+    def select(self, idx: np.ndarray) -> None:
+        """Resampling: particle i takes the map of particle idx[i] (copies)."""
+        self.hits = self.hits[idx]
+        self.visits = self.visits[idx]
+
+    def occupancy(self, p: int, occ_thresh: float) -> np.ndarray:
+        """-1/0/100 grid of particle p."""
+        return occupancy_from_counts(self.hits[p], self.visits[p], occ_thresh)
+
+    def ensure_contains(self, xmin: float, ymin: float, xmax: float, ymax: float,
+                        margin: float) -> bool:
+        """Grow the grid (by at least ``margin`` [m] on a side that is too small) so the
+        rectangle fits; returns True if it grew."""
+        info = self.info
+        res = info.resolution
+        need = [
+            math.ceil((info.origin_x - xmin) / res),   # left
+            math.ceil((info.origin_y - ymin) / res),   # bottom
+            math.ceil((xmax - info.xmax) / res),       # right
+            math.ceil((ymax - info.ymax) / res),       # top
+        ]
+        if max(need) <= 0:
+            return False
+        extra = int(math.ceil(margin / res))
+        left, bottom, right, top = (k + extra if k > 0 else 0 for k in need)
+        pad = ((0, 0), (bottom, top), (left, right))
+        self.hits = np.pad(self.hits, pad)
+        self.visits = np.pad(self.visits, pad)
+        self.info = info.grown(left, bottom, right, top)
+        return True
+
+    def _window(self, u: np.ndarray, v: np.ndarray, margin_cells: int) -> Tuple[int, int, int, int]:
+        """Cell window [x0, x1) x [y0, y1) around continuous cell coords, clipped to the grid."""
+        x0 = max(int(math.floor(float(u.min()))) - margin_cells, 0)
+        y0 = max(int(math.floor(float(v.min()))) - margin_cells, 0)
+        x1 = min(int(math.ceil(float(u.max()))) + margin_cells + 1, self.info.width)
+        y1 = min(int(math.ceil(float(v.max()))) + margin_cells + 1, self.info.height)
+        return x0, y0, max(x1, x0 + 1), max(y1, y0 + 1)
+
+    def _to_cells(self, poses: np.ndarray, pts: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """Base-frame points (M, 2) seen from every pose (N, 3) -> continuous cell coords (N, M)."""
+        res = self.info.resolution
+        c = np.cos(poses[:, 2])[:, None]
+        s = np.sin(poses[:, 2])[:, None]
+        px = pts[None, :, 0]
+        py = pts[None, :, 1]
+        u = (poses[:, 0:1] - self.info.origin_x + c * px - s * py) / res
+        v = (poses[:, 1:2] - self.info.origin_y + s * px + c * py) / res
+        return u, v
+
+    def footprint(self, poses: np.ndarray, scan: PreparedScan) -> Tuple[float, float, float, float]:
+        """World bounding box [m] of the scan's free polygon seen from all poses."""
+        u, v = self._to_cells(poses, scan.free_polygon)
+        res = self.info.resolution
+        ox, oy = self.info.origin_x, self.info.origin_y
+        return (ox + float(u.min()) * res, oy + float(v.min()) * res,
+                ox + float(u.max()) * res, oy + float(v.max()) * res)
+
+    def register(self, poses: np.ndarray, scan: PreparedScan) -> None:
+        """Add the scan to every particle's map (particle i at poses[i]); the grid must already
+        contain the scan (``ensure_contains``)."""
+        n = self.n
+        if scan.free_polygon.shape[0] < 3 and scan.hits.shape[0] == 0:
+            return
+        u, v = self._to_cells(poses, scan.free_polygon)
+        x0, y0, x1, y1 = self._window(u, v, 1)
+        h, w = y1 - y0, x1 - x0
+        # Free space: all particles' polygons into one tall mask, band p = rows [p*h, (p+1)*h).
+        # Pixel (i, j) has its centre at cell coords (i + 0.5, j + 0.5).
+        scale = float(1 << FILL_SHIFT)
+        pu = np.rint((u - x0 - 0.5) * scale).astype(np.int32)
+        pv = np.rint((v - y0 - 0.5 + h * np.arange(n)[:, None]) * scale).astype(np.int32)
+        polys = list(np.stack([pu, pv], axis=-1))
+        mask = np.zeros((n * h, w), dtype=np.uint8)
+        cv2.fillPoly(mask, polys, 1, lineType=cv2.LINE_8, shift=FILL_SHIFT)
+        mask = mask.reshape(n, h, w)
+        hit_flat = None
+        if scan.hits.shape[0]:
+            hu, hv = self._to_cells(poses, scan.hits)
+            hx = np.floor(hu).astype(np.int64)
+            hy = np.floor(hv).astype(np.int64)
+            inside = (hx >= 0) & (hx < self.info.width) & (hy >= 0) & (hy < self.info.height)
+            pidx = np.broadcast_to(np.arange(n)[:, None], hx.shape)[inside]
+            hx, hy = hx[inside], hy[inside]
+            # a hit cell is only counted as hit, never also as traversed in this scan
+            in_win = (hx >= x0) & (hx < x1) & (hy >= y0) & (hy < y1)
+            mask[pidx[in_win], hy[in_win] - y0, hx[in_win] - x0] = 0
+            hit_flat = (pidx * self.info.height + hy) * self.info.width + hx
+        self._count_free(mask.view(bool), (slice(None), slice(y0, y1), slice(x0, x1)))
+        if hit_flat is not None:
+            self._count_hits(hit_flat)
+
+    def _count_free(self, mask: np.ndarray, win: tuple) -> None:
+        visits = self.visits[win]
+        vals = visits[mask]
+        full = vals >= COUNT_MAX
+        if full.any():
+            hits = self.hits[win]
+            hvals = hits[mask]
+            _halve_full(vals, hvals, full)
+            hits[mask] = hvals
+        visits[mask] = vals + 1
+
+    def _count_hits(self, flat: np.ndarray) -> None:
+        # Gather, add one, scatter: duplicate indices write the same value, so each cell is
+        # counted once per scan however many beams end in it.
+        visits = self.visits.reshape(-1)
+        hits = self.hits.reshape(-1)
+        vals = visits[flat]
+        hvals = hits[flat]
+        full = vals >= COUNT_MAX
+        if full.any():
+            _halve_full(vals, hvals, full)
+        visits[flat] = vals + 1
+        hits[flat] = hvals + 1
+
+
+def _field_table(occ_thresh: float) -> np.ndarray:
+    """Lookup (visits << 8 | hits) -> 0 for occupied cells, 255 otherwise (distance input)."""
+    visits, hits = np.divmod(np.arange(1 << 16), 1 << 8)
+    occupied = (visits > 0) & (hits > occ_thresh * visits)
+    return np.where(occupied, 0, 255).astype(np.uint8)
+
+
+class _LikelihoodFields:
+    """Per-particle distance fields (distance [m] from each cell to the nearest occupied cell
+    of that particle's map, capped at the match radius) over one common window, stacked as a
+    tall image; looked up with bilinear interpolation so sub-cell motions change the score
+    (nearest-cell lookups let sub-cell odometry errors accumulate into map drift)."""
+
+    def __init__(self, maps: ParticleMaps, window: Tuple[int, int, int, int], cfg: RbpfConfig,
+                 table: np.ndarray):
+        x0, y0, x1, y1 = window
+        res = maps.info.resolution
+        self.pad = int(math.ceil(cfg.match_radius / res)) + 1
+        self.w = x1 - x0
+        self.h = y1 - y0
+        self.band = self.h + self.pad
+        n = maps.n
+        key = maps.visits[:, y0:y1, x0:x1].astype(np.uint16) << 8
+        key |= maps.hits[:, y0:y1, x0:x1]
+        img = np.full((n, self.band, self.w), 255, dtype=np.uint8)
+        img[:, : self.h, :] = table[key]
+        dist = cv2.distanceTransform(img.reshape(n * self.band, self.w), cv2.DIST_L2,
+                                     cv2.DIST_MASK_5)
+        dist *= np.float32(res)
+        np.minimum(dist, np.float32(cfg.match_radius), out=dist)
+        self.dist = dist.reshape(-1)
+        # continuous cell coordinates of the window, pixel centres at integers
+        self.origin_x = maps.info.origin_x + (x0 + 0.5) * res
+        self.origin_y = maps.info.origin_y + (y0 + 0.5) * res
+        self.res = res
+
+    def rotated(self, theta: np.ndarray, pts: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """End points ``pts`` (M, 2, base frame) rotated by every ``theta`` [rad], in cells:
+        two float32 arrays of shape theta.shape + (M,)."""
+        inv = np.float32(1.0 / self.res)
+        c = np.cos(theta).astype(np.float32)[..., None]
+        s = np.sin(theta).astype(np.float32)[..., None]
+        mx = (pts[:, 0] * inv).astype(np.float32)
+        my = (pts[:, 1] * inv).astype(np.float32)
+        return c * mx - s * my, s * mx + c * my
+
+    def cells(self, x: np.ndarray, y: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """World positions [m] -> continuous window cell coordinates (float32, [..., None])."""
+        inv = 1.0 / self.res
+        return (((x - self.origin_x) * inv).astype(np.float32)[..., None],
+                ((y - self.origin_y) * inv).astype(np.float32)[..., None])
+
+    def interpolate(self, u: np.ndarray, v: np.ndarray, particle: np.ndarray) -> np.ndarray:
+        """Bilinear distance [m] at window cell coordinates u, v (n, K, M) of particles
+        ``particle`` (n,); modifies u and v. Off-window points clamp to the border."""
+        np.clip(u, 0.0, self.w - 1.001, out=u)
+        np.clip(v, 0.0, self.h - 1.001, out=v)
+        iu = u.astype(np.int32)
+        iv = v.astype(np.int32)
+        fu = u - iu
+        fv = v - iv
+        idx = iv * np.int32(self.w)
+        idx += iu
+        idx += (particle.astype(np.int32) * np.int32(self.band * self.w))[:, None, None]
+        dist = self.dist
+        d00 = dist.take(idx)
+        idx += 1
+        d10 = dist.take(idx)
+        idx += self.w
+        d11 = dist.take(idx)
+        idx -= 1
+        d01 = dist.take(idx)
+        top = d00 + fu * (d10 - d00)
+        bottom = d01 + fu * (d11 - d01)
+        return top + fv * (bottom - top)
+
+    def distances(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """Interpolated distance [m] at the end points ``pts`` (M, 2, base frame) for poses
+        (n, K, 3) of particles ``particle`` (n,) -> (n, K, M)."""
+        ru, rv = self.rotated(poses[..., 2], pts)
+        xc, yc = self.cells(poses[..., 0], poses[..., 1])
+        return self.interpolate(xc + ru, yc + rv, particle)
+
+    @staticmethod
+    def match_score(d: np.ndarray, sigma: float) -> np.ndarray:
+        """sum_b exp(-d_b^2 / (2 sigma^2)) [beams] over the last axis."""
+        return np.exp(d * d * np.float32(-0.5 / sigma ** 2)).sum(axis=-1)
+
+    @staticmethod
+    def log_likelihood(d: np.ndarray, lsigma: float, radius: float) -> np.ndarray:
+        """sum_b -min(d_b, radius)^2 / (2 lsigma^2) over the last axis."""
+        d = np.minimum(d.astype(np.float64), radius)
+        return -(d * d).sum(axis=-1) / (2.0 * lsigma * lsigma)
+
+
+class RbpfSlam:
+    """The filter: particles (poses, log weights, maps). Feed it with ``update``."""
+
+    def __init__(self, cfg: RbpfConfig, seed: Optional[int] = None):
+        cfg.validate()
+        self.cfg = cfg
+        self.rng = np.random.default_rng(seed)
+        self.poses = np.zeros((cfg.particles, 3))
+        self.log_w = np.zeros(cfg.particles)
+        self.maps = ParticleMaps(cfg.particles, GridInfo.from_bounds(
+            cfg.delta, cfg.xmin, cfg.ymin, cfg.xmax, cfg.ymax))
+        self.best = 0
+        self.initialized = False
+        self.updates = 0
+        self._table = _field_table(cfg.occ_thresh)
+
+    @property
+    def weights(self) -> np.ndarray:
+        return normalized_weights(self.log_w)
+
+    @property
+    def best_pose(self) -> np.ndarray:
+        return self.poses[self.best].copy()
+
+    def occupancy(self) -> Tuple[np.ndarray, GridInfo]:
+        """-1/0/100 grid of the best particle and its geometry."""
+        return self.maps.occupancy(self.best, self.cfg.occ_thresh), self.maps.info
+
+    def start(self, pose, scan: PreparedScan) -> UpdateStats:
+        """Initialise all particles at ``pose`` (x, y, theta in the map frame) with this scan."""
+        self.poses[:] = np.asarray(pose, dtype=float)
+        self.log_w[:] = 0.0
+        self.best = 0
+        stats = UpdateStats(entropy=weight_entropy(self.weights), neff=float(self.cfg.particles))
+        stats.grown = self._register(scan)
+        self.initialized = True
+        self.updates = 1
+        return stats
+
+    def update(self, odom_delta, scan: PreparedScan) -> UpdateStats:
+        """One filter step: the robot moved by ``odom_delta`` (dx, dy, dtheta in the previous
+        robot frame, from odometry) and then took ``scan``."""
+        if not self.initialized:
+            raise RuntimeError("RbpfSlam.update() before start()")
+        cfg = self.cfg
+        stats = UpdateStats()
+        odom_delta = np.asarray(odom_delta, dtype=float)
+        self.poses = sample_motion(self.poses, odom_delta, cfg, self.rng)
+        reach = scan.max_urange - math.hypot(odom_delta[0], odom_delta[1]) - cfg.new_area_margin
+        pts = scan.match[scan.match_range <= reach]
+        if pts.shape[0]:
+            fields = self._fields(pts)
+            s_xy, s_th = motion_noise(odom_delta, cfg)
+            inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
+                               + [max(s_th, cfg.prior_min_theta) ** -2])
+            matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var)
+            accept = score >= cfg.minimum_score
+            self.poses[accept] = matched[accept]
+            stats.matched = int(accept.sum())
+            stats.mean_score = float(score.mean())
+            d = fields.distances(self.poses[:, None, :], np.arange(cfg.particles), pts)[:, 0, :]
+            self.log_w += fields.log_likelihood(d, cfg.lsigma, cfg.match_radius) / cfg.ogain
+        self.log_w -= self.log_w.max()
+        weights = self.weights
+        stats.entropy = weight_entropy(weights)
+        stats.neff = effective_sample_size(weights)
+        self.best = int(np.argmax(weights))
+        if stats.neff < cfg.resample_threshold * cfg.particles:
+            idx = low_variance_resample(weights, self.rng)
+            self.poses = self.poses[idx]
+            self.maps.select(idx)
+            self.log_w[:] = 0.0
+            survivors = np.nonzero(idx == self.best)[0]
+            self.best = int(survivors[0]) if survivors.size else 0
+            stats.resampled = True
+        stats.grown = self._register(scan)
+        stats.best = self.best
+        self.updates += 1
+        return stats
+
+    def _register(self, scan: PreparedScan) -> bool:
+        xmin, ymin, xmax, ymax = self.maps.footprint(self.poses, scan)
+        pad = 2.0 * self.cfg.delta
+        grown = self.maps.ensure_contains(xmin - pad, ymin - pad, xmax + pad, ymax + pad,
+                                          self.cfg.grow_margin)
+        self.maps.register(self.poses, scan)
+        return grown
+
+    def _fields(self, pts: np.ndarray) -> _LikelihoodFields:
+        u, v = self.maps._to_cells(self.poses, pts)
+        margin = int(math.ceil((self.cfg.search_margin + self.cfg.match_radius) / self.cfg.delta))
+        return _LikelihoodFields(self.maps, self.maps._window(u, v, margin), self.cfg, self._table)
+
+    def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray,
+                    prior: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """gmapping-style greedy search, all particles at once: try the six moves around the
+        current pose; take the best if it improves the objective, else halve that particle's
+        steps; stop a particle after ``iterations`` halvings. Objective: match score minus
+        sum_k prior[k] * (pose_k - start_k)^2. Returns the poses and their match scores."""
+        cfg = self.cfg
+        n = self.poses.shape[0]
+        start = self.poses.copy()
+        pose = start.copy()
+        everyone = np.arange(n)
+        score = fields.match_score(fields.distances(pose[:, None, :], everyone, pts),
+                                   cfg.sigma)[:, 0]
+        best = score.copy()
+        step = np.ones(n)
+        halvings = np.zeros(n, dtype=int)
+        unit = np.array([cfg.lstep, cfg.lstep, cfg.astep])
+        active = everyone
+        for _ in range(MAX_CLIMB_STEPS):
+            if active.size == 0:
+                break
+            cand = pose[active, None, :] + _MOVES[None, :, :] * (step[active, None, None] * unit)
+            sc = self._candidate_scores(fields, cand, active, pts)
+            obj = sc - ((cand - start[active, None, :]) ** 2 * prior).sum(axis=-1)
+            j = np.argmax(obj, axis=1)
+            rows = np.arange(active.size)
+            better = obj[rows, j] > best[active]
+            moved = active[better]
+            pose[moved] = cand[better, j[better]]
+            best[moved] = obj[rows, j][better]
+            score[moved] = sc[rows, j][better]
+            stuck = active[~better]
+            step[stuck] *= 0.5
+            halvings[stuck] += 1
+            active = active[halvings[active] < cfg.iterations]
+        pose[:, 2] = normalize_angle(pose[:, 2])
+        return pose, score
+
+    def _candidate_scores(self, fields: _LikelihoodFields, cand: np.ndarray,
+                          particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """Scores of the six moves (n, 6, 3): the four translations share one rotation of
+        the end points, so only three rotations are computed."""
+        ru, rv = fields.rotated(cand[:, 3:, 2], pts)  # theta (as +-x/+-y), +a, -a: (n, 3, M)
+        xc, yc = fields.cells(cand[..., 0], cand[..., 1])
+        trans = fields.interpolate(xc[:, :4] + ru[:, :1], yc[:, :4] + rv[:, :1], particle)
+        turns = fields.interpolate(xc[:, 4:] + ru[:, 1:], yc[:, 4:] + rv[:, 1:], particle)
+        sigma = self.cfg.sigma
+        return np.concatenate([fields.match_score(trans, sigma),
+                               fields.match_score(turns, sigma)], axis=1)

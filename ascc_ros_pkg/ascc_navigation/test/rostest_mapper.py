@@ -1,0 +1,133 @@
+#!/usr/bin/env python3
+"""rostest: the slam_gmapping stand-in maps part of the simulated office.
+
+The robot is driven along ``~waypoints`` (world frame) by a simple controller on the
+simulator's ground truth; meanwhile a few bad scans (empty, all NaN, unknown frame) are
+published on ``scan``. Then: the map agrees with ``ground_truth/map`` (>= ``~min_accuracy``
+of the known cells), holds only -1/0/100, ``dynamic_map`` serves it, the entropy was
+published, and TF map -> base_link matches the true pose. Waits are on conditions with
+wall-clock timeouts, never fixed sleeps.
+"""
+import math
+import os
+import sys
+import time
+import unittest
+
+import numpy as np
+import rospkg
+import rospy
+import rostest
+import tf2_ros
+from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.msg import OccupancyGrid, Odometry
+from nav_msgs.srv import GetMap
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Float64
+
+from ascc_navigation.grid import GridInfo, grid_from_msg_data, map_agreement
+from ascc_navigation.pose2d import compose, inverse, normalize_angle, yaw_from_quaternion
+
+# The simulator's rostest helpers (condition waits with timeouts, newest-message holder).
+sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("ascc_sim"), "test"))
+from sim_wait import Latest, pose_of, wait_for  # noqa: E402
+
+
+class MapperTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("mapper_test")
+        robot = rospy.get_param("~robot", "asccbot")
+        cls.waypoints = [tuple(w) for w in rospy.get_param("~waypoints")]
+        cls.min_accuracy = float(rospy.get_param("~min_accuracy", 0.95))
+        cls.max_pose_error_m = float(rospy.get_param("~max_pose_error_m", 0.15))
+        cls.drive_timeout_s = float(rospy.get_param("~drive_timeout_s", 150.0))
+        cls.truth = Latest("ground_truth/%s/odom" % robot, Odometry)
+        cls.start = Latest("ground_truth/%s/start_pose" % robot, PoseStamped)
+        cls.truth_map = Latest("ground_truth/map", OccupancyGrid)
+        cls.map = Latest("map", OccupancyGrid)
+        cls.entropy = Latest("slam_gmapping/entropy", Float64)
+        cls.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
+        cls.bad_scans = rospy.Publisher("scan", LaserScan, queue_size=5)
+        cls.tf_buffer = tf2_ros.Buffer()
+        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
+
+    def publish_bad_scans(self):
+        """Scans the mapper must survive (it warns and drops them)."""
+        wait_for(lambda: self.bad_scans.get_num_connections() > 0, 30.0, "the mapper on scan")
+        for frame, ranges in (("laser", []), ("laser", [float("nan")] * 683),
+                              ("no_such_frame", [1.0] * 683)):
+            msg = LaserScan()
+            msg.header.stamp = rospy.Time.now()
+            msg.header.frame_id = frame
+            msg.angle_min, msg.angle_max = -2.094, 2.094
+            msg.angle_increment = 0.006136
+            msg.range_min, msg.range_max = 0.02, 4.094
+            msg.ranges = ranges
+            self.bad_scans.publish(msg)
+
+    def drive_route(self):
+        rate = rospy.Rate(20.0)  # simulated time
+        deadline = time.monotonic() + self.drive_timeout_s
+        for wx, wy in self.waypoints:
+            while True:
+                self.assertLess(time.monotonic(), deadline, "route not finished in time")
+                x, y, yaw = pose_of(self.truth.msg)
+                dist = math.hypot(wx - x, wy - y)
+                if dist < 0.1:
+                    break
+                err = float(normalize_angle(math.atan2(wy - y, wx - x) - yaw))
+                t = Twist()
+                t.angular.z = max(-0.8, min(0.8, 2.0 * err))
+                t.linear.x = 0.0 if abs(err) > 0.3 else min(0.3, 0.8 * dist)
+                self.cmd.publish(t)
+                rate.sleep()
+        self.cmd.publish(Twist())
+
+    def test_map_part_of_the_office(self):
+        self.truth.wait(90.0)
+        start = pose_of(self.start.wait(30.0))
+        truth_msg = self.truth_map.wait(30.0)
+        self.map.wait(60.0)  # the mapper has started on the first scans
+        wait_for(lambda: self.cmd.get_num_connections() > 0, 30.0, "the driver on cmd_vel")
+        self.publish_bad_scans()
+        self.drive_route()
+        entropies = self.entropy.count
+        # The last filter update is published within map_update_interval (simulated time).
+        settle = rospy.Time.now() + rospy.Duration(
+            rospy.get_param("slam_gmapping/map_update_interval", 5.0) + 1.0)
+        wait_for(lambda: rospy.Time.now() > settle, 60.0, "the final map to be published")
+
+        msg = self.map.msg
+        grid = grid_from_msg_data(msg.data, msg.info.width, msg.info.height)
+        self.assertTrue(set(np.unique(grid).tolist()) <= {-1, 0, 100})
+        self.assertEqual(msg.header.frame_id, "map")
+        truth = grid_from_msg_data(truth_msg.data, truth_msg.info.width, truth_msg.info.height)
+        res = map_agreement(grid, GridInfo.from_msg_info(msg.info), truth,
+                            GridInfo.from_msg_info(truth_msg.info), offset=start)
+        rospy.loginfo("mapper rostest: %s", res)
+        self.assertGreater(res["known"], 5000, "the map should cover part of the office")
+        self.assertGreaterEqual(res["accuracy"], self.min_accuracy, str(res))
+
+        served = rospy.ServiceProxy("dynamic_map", GetMap)(GetMap._request_class()).map
+        self.assertEqual((served.info.width, served.info.height),
+                         (msg.info.width, msg.info.height))
+        self.assertGreater(entropies, 10)
+        h = self.entropy.msg.data
+        self.assertTrue(0.0 <= h <= math.log(30) + 1e-6, h)
+
+        # TF map -> base_link (mapper's map->odom, driver's odom->base) vs the truth
+        wait_for(lambda: self.tf_buffer.can_transform("map", "base_link", rospy.Time(0)),
+                 10.0, "TF map -> base_link")
+        tf = self.tf_buffer.lookup_transform("map", "base_link", rospy.Time(0))
+        q = tf.transform.rotation
+        est = np.array([tf.transform.translation.x, tf.transform.translation.y,
+                        yaw_from_quaternion(q.x, q.y, q.z, q.w)])
+        true_in_map = compose(inverse(start), pose_of(self.truth.msg))
+        err = math.hypot(*(est[:2] - true_in_map[:2]))
+        rospy.loginfo("mapper rostest: pose error %.3f m", err)
+        self.assertLess(err, self.max_pose_error_m)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("ascc_navigation", "mapper", MapperTest, sys.argv)

@@ -1,0 +1,170 @@
+"""Tests of the move_base state machine (pure code, no ROS master)."""
+
+import numpy as np
+import pytest
+
+from ascc_navigation import controller as ctl
+from ascc_navigation import navigation as nav
+from ascc_navigation import synthetic as syn
+from ascc_navigation.grid import OCCUPIED
+
+DT = 0.1
+
+
+@pytest.fixture(scope="module")
+def office():
+    return syn.office_world()
+
+
+def _run(navigator, pose, t0=0.0, seconds=120.0, obstacles=None):
+    """Drives a unicycle with the navigator's commands; returns (last step, pose, steps)."""
+    pose = np.array(pose, dtype=float)
+    steps, t = [], t0
+    while t - t0 < seconds:
+        obs = obstacles(pose) if obstacles else None
+        step = navigator.step(t, pose, obs, DT)
+        steps.append(step)
+        if step.status != nav.ACTIVE:
+            break
+        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+        t += DT
+    return steps[-1], pose, steps
+
+
+def test_goal_yaw_validation():
+    assert nav.goal_yaw(0.0, 0.0, np.sin(0.4), np.cos(0.4)) == pytest.approx(0.8)
+    assert nav.goal_yaw(0.0, 0.0, 0.0, 2.0) == pytest.approx(0.0)  # not normalised: fine
+    for bad in [(0.0, 0.0, 0.0, 0.0), (np.nan, 0.0, 0.0, 1.0), (1.0, 0.0, 0.0, 0.0)]:
+        with pytest.raises(ValueError):
+            nav.goal_yaw(*bad)
+
+
+def test_reaches_a_goal_in_the_office(office):
+    navigator = nav.Navigator()
+    navigator.set_map(*office)
+    navigator.set_goal(8.0, 8.4, np.pi / 2, 0.0)
+    last, pose, steps = _run(navigator, (2.0, 2.0, 0.0))
+    assert last.status == nav.SUCCEEDED, last.reason
+    assert np.hypot(pose[0] - 8.0, pose[1] - 8.4) <= ctl.ControllerParams().xy_goal_tolerance
+    assert steps[0].new_path is not None and len(steps[0].new_path) > 10
+    assert navigator.step(100.0, pose, None, DT).status == nav.SUCCEEDED  # stays done
+
+
+def test_waits_for_a_map_then_aborts_after_planner_patience():
+    navigator = nav.Navigator(params=nav.NavParams(planner_patience=2.0))
+    navigator.set_goal(1.0, 1.0, None, 10.0)
+    last, _, steps = _run(navigator, (0.0, 0.0, 0.0), t0=10.0, seconds=10.0)
+    assert last.status == nav.ABORTED and "waiting for a map" in last.reason
+    assert (len(steps) - 1) * DT == pytest.approx(2.0, abs=DT + 1e-6)
+    assert all(s.v == 0.0 and s.w == 0.0 for s in steps)
+
+
+def test_unreachable_goal_aborts_after_planner_patience(office):
+    grid, info = office
+    sealed = grid.copy()
+    sealed[160:162, 256:] = OCCUPIED  # closet walls: y 8.0 .. 8.1, x 12.8 ..
+    sealed[160:, 256:258] = OCCUPIED
+    navigator = nav.Navigator()
+    navigator.set_map(sealed, info)
+    navigator.set_goal(13.4, 9.0, 0.0, 0.0)
+    last, _, steps = _run(navigator, (2.0, 2.0, 0.0))
+    assert last.status == nav.ABORTED and "not reachable" in last.reason
+    assert len(steps) * DT <= nav.NavParams().planner_patience + 0.2
+
+
+def test_invalid_goals_abort_at_once(office):
+    for goal, why in [((30.0, 1.0), "outside the map"), ((7.0, 4.2), "obstacle")]:
+        navigator = nav.Navigator()
+        navigator.set_map(*office)
+        navigator.set_goal(goal[0], goal[1], None, 0.0)
+        step = navigator.step(0.0, (2.0, 2.0, 0.0), None, DT)
+        assert step.status == nav.ABORTED and why in step.reason
+
+
+def test_map_update_triggers_a_replan(office):
+    navigator = nav.Navigator()
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    assert navigator.step(0.0, (2.0, 2.0, 0.0), None, DT).new_path is not None
+    assert navigator.step(0.1, (2.0, 2.0, 0.0), None, DT).new_path is None
+    grid, info = office
+    blocked = grid.copy()
+    blocked[2:60, 160:164] = OCCUPIED  # wall across the south corridor at x = 8 m
+    navigator.set_map(blocked, info)
+    path = navigator.step(0.2, (2.0, 2.0, 0.0), None, DT).new_path
+    assert path is not None and path[:, 1].max() > 5.5  # now around the north side
+
+
+def test_cancel_stops_and_idles(office):
+    navigator = nav.Navigator()
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    for k in range(5):
+        navigator.step(k * DT, (2.0, 2.0, 0.0), None, DT)
+    navigator.cancel()
+    step = navigator.step(1.0, (2.0, 2.0, 0.0), None, DT)
+    assert step.status == nav.IDLE and step.v == 0.0 and step.w == 0.0
+
+
+def test_blocked_robot_recovers_then_aborts(office):
+    """An obstacle that stays 0.2 m ahead of the robot whatever it does (a stuck sensor):
+    re-plan, then a full clearing rotation, then abort with a reason."""
+    params = nav.NavParams(controller_patience=1.0)
+    navigator = nav.Navigator(params=params)
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    stuck = np.array([[0.2, 0.0], [0.2, 0.1], [0.2, -0.1]])
+    last, pose, steps = _run(navigator, (2.0, 2.0, 0.0), obstacles=lambda p: stuck)
+    # what the rotation saw (the phantom all around) leaves no way out
+    assert last.status == nav.ABORTED and "after the clearing rotation" in last.reason
+    reasons = [s.reason for s in steps]
+    assert any("re-planning" in r for r in reasons)
+    rotation = [s for s in steps if s.reason == "recovery: clearing rotation"]
+    turned = sum(s.w for s in rotation) * DT
+    assert turned == pytest.approx(2 * np.pi, abs=params.rotation_speed * DT)
+    assert all(s.v == 0.0 for s in steps if s.controller_state == ctl.BLOCKED)
+    assert len(steps) * DT < 30.0
+
+
+def test_box_missing_from_the_map_is_avoided_after_replanning(office):
+    grid, info = office
+    box = np.array([[x, y] for x in np.arange(7.6, 8.25, 0.05)
+                    for y in np.arange(1.4, 2.65, 0.05)])  # blocks the straight line
+
+    def laser(pose):  # points of the box within 4 m, in the base frame (no occlusion)
+        c, s = np.cos(pose[2]), np.sin(pose[2])
+        d = box - pose[:2]
+        pts = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        return pts[np.hypot(pts[:, 0], pts[:, 1]) < 4.0]
+
+    navigator = nav.Navigator(params=nav.NavParams(controller_patience=1.0))
+    navigator.set_map(grid, info)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    last, pose, steps = _run(navigator, (2.0, 2.0, 0.0), obstacles=laser)
+    assert last.status == nav.SUCCEEDED, last.reason
+    assert any(s.controller_state == ctl.BLOCKED for s in steps)  # it did meet the box
+
+
+def test_params_from_move_base_names():
+    tree = {"planner_patience": 7.0, "NavfnROS": {"allow_unknown": False},
+            "TrajectoryPlannerROS": {"max_vel_x": 0.2},
+            "global_costmap": {"robot_radius": 0.2,
+                               "inflation_layer": {"inflation_radius": 0.8}},
+            "stand_in": {"planner_resolution": 0.05}}
+    planner, controller, params = nav.params_from_move_base(nav.nested_getter(tree))
+    assert params.planner_patience == 7.0
+    assert planner.allow_unknown is False and planner.resolution == 0.05
+    assert planner.robot_radius == 0.2 and controller.robot_radius == 0.2
+    assert planner.inflation_radius == 0.8 and controller.max_vel_x == 0.2
+    assert controller.acc_lim_x == ctl.ControllerParams().acc_lim_x  # default kept
+
+
+def test_blocked_twice_without_rotation_aborts(office):
+    params = nav.NavParams(controller_patience=1.0, clearing_rotation_allowed=False)
+    navigator = nav.Navigator(params=params)
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    stuck = np.array([[0.2, 0.0]])
+    last, _, steps = _run(navigator, (2.0, 2.0, 0.0), obstacles=lambda p: stuck)
+    assert last.status == nav.ABORTED and "recovery behaviours failed" in last.reason
+    assert not any("rotation" in s.reason for s in steps)

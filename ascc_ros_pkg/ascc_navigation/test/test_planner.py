@@ -1,0 +1,182 @@
+"""Tests of the global planner (pure code, no ROS master)."""
+
+import heapq
+
+import numpy as np
+import pytest
+
+from ascc_navigation import planner as pln
+from ascc_navigation import synthetic as syn
+from ascc_navigation.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+
+
+def _reference_dijkstra(costmap: pln.Costmap, goal):
+    """Textbook heapq Dijkstra on the same 8-connected integer step costs."""
+    rows, cols = costmap.shape
+    dist = np.full((rows, cols), pln.INF, dtype=np.int64)
+    dist[goal] = 0
+    heap = [(0, goal)]
+    while heap:
+        d, (r, c) = heapq.heappop(heap)
+        if d > dist[r, c]:
+            continue
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                nr, nc = r + dr, c + dc
+                if (dr or dc) and 0 <= nr < rows and 0 <= nc < cols:
+                    # the move (nr, nc) -> (r, c) costs entering (r, c); lethal cells
+                    # cannot be entered (but a robot standing in one may leave it)
+                    if costmap.lethal[r, c]:
+                        continue
+                    unit = pln.DIAG if dr and dc else pln.UNIT
+                    step = int(np.round(unit * costmap.weight[r, c]))
+                    if d + step < dist[nr, nc]:
+                        dist[nr, nc] = d + step
+                        heapq.heappush(heap, (d + step, (nr, nc)))
+    return dist
+
+
+@pytest.mark.parametrize("shape", [(30, 45), (45, 30)])  # wide and tall (transposed) grids
+def test_cost_to_goal_equals_dijkstra(shape):
+    rng = np.random.default_rng(shape[0])
+    grid = np.where(rng.random(shape) < 0.08, OCCUPIED, FREE).astype(np.int8)
+    grid[rng.random(shape) < 0.1] = UNKNOWN
+    info = GridInfo(0.1, shape[1], shape[0])
+    params = pln.PlannerParams(robot_radius=0.05, footprint_padding=0.0, inflation_radius=0.3,
+                               resolution=0.1)
+    costmap = pln.Costmap(grid, info, params)
+    free = np.argwhere(~costmap.lethal)
+    goal = tuple(int(v) for v in free[len(free) // 2])
+    dist, rounds = pln.cost_to_goal(costmap, goal)
+    ref = _reference_dijkstra(costmap, goal)
+    reachable = ref < pln.INF
+    assert reachable.sum() > 0.5 * (~costmap.lethal).sum()
+    assert np.array_equal(dist[reachable], ref[reachable])
+    assert np.all(dist[~reachable] >= pln.LETHAL)  # unreachable stays unreachable
+    assert rounds < 50
+
+
+@pytest.fixture(scope="module")
+def office():
+    return syn.office_world()
+
+
+def test_path_is_clear_of_obstacles_and_ends_at_the_goal(office):
+    grid, info = office
+    params = pln.PlannerParams()
+    costmap = pln.Costmap(grid, info, params)
+    start, goal = (2.0, 2.0), (8.0, 8.4)  # from the south corridor into a north room
+    result = pln.plan(costmap, start, goal)
+    assert result.ok, result.reason
+    assert result.path[0] == pytest.approx(start) and result.path[-1] == pytest.approx(goal)
+    steps = np.hypot(*np.diff(result.path[1:-1], axis=0).T)  # ends: exact start and goal
+    assert steps.max() <= costmap.resolution * np.sqrt(2) + 1e-9  # connected 8-neighbours
+    # every path point keeps the robot's radius from the true map's obstacles
+    occ = np.argwhere(grid == OCCUPIED)
+    ox, oy = info.cell_to_world(occ[:, 1], occ[:, 0])
+    for p in result.path[1:-1]:
+        d = np.min(np.hypot(ox - p[0], oy - p[1])) - info.resolution / 2
+        assert d > params.robot_radius
+    length = pln.path_length(result.path)
+    assert np.hypot(goal[0] - start[0], goal[1] - start[1]) < length < 25.0
+    assert result.cost >= length  # inflation and unknown only add cost
+
+
+def test_unreachable_off_map_and_in_obstacle_goals(office):
+    grid, info = office
+    sealed = grid.copy()
+    sealed[int(8.0 / 0.05):int(8.1 / 0.05), int(12.8 / 0.05):] = OCCUPIED  # closet walls
+    sealed[int(8.0 / 0.05):, int(12.8 / 0.05):int(12.9 / 0.05)] = OCCUPIED
+    costmap = pln.Costmap(sealed, info)
+    r = pln.plan(costmap, (2.0, 2.0), (13.4, 9.0))
+    assert not r.ok and r.failure == pln.UNREACHABLE and "not reachable" in r.reason
+    r = pln.plan(costmap, (2.0, 2.0), (20.0, 3.0))
+    assert not r.ok and r.failure == pln.INVALID_GOAL and "outside the map" in r.reason
+    r = pln.plan(costmap, (2.0, 2.0), (7.0, 4.2))  # middle of the central block
+    assert not r.ok and r.failure == pln.INVALID_GOAL and "obstacle" in r.reason
+    r = pln.plan(costmap, (-3.0, 2.0), (3.0, 2.0))
+    assert not r.ok and r.failure == pln.INVALID_START
+
+
+def test_goal_next_to_a_wall_moves_within_tolerance(office):
+    grid, info = office
+    params = pln.PlannerParams(default_tolerance=0.3)
+    costmap = pln.Costmap(grid, info, params)
+    goal = (2.0, 0.2)  # 10 cm from the south wall: inside the inflated zone
+    assert not costmap.is_free_at(goal)
+    r = pln.plan(costmap, (2.0, 2.0), goal)
+    assert r.ok
+    assert np.hypot(*(r.path[-1] - goal)) <= 0.3 + costmap.resolution
+    assert costmap.is_free_at(r.path[-1])
+
+
+def test_start_inside_the_inflated_zone_can_leave_it(office):
+    grid, info = office
+    costmap = pln.Costmap(grid, info)
+    start = (2.0, 0.3)  # 20 cm from the wall: lethal for a 0.17 m robot plus one cell
+    assert not costmap.is_free_at(start)
+    r = pln.plan(costmap, start, (2.0, 2.5))
+    assert r.ok, r.reason
+
+
+def test_unknown_space_is_allowed_only_when_asked():
+    grid = np.full((40, 60), UNKNOWN, np.int8)
+    grid[:, :20] = FREE
+    grid[:, 40:] = FREE
+    info = GridInfo(0.1, 60, 40)
+    start, goal = (0.5, 2.0), (5.5, 2.0)
+    assert pln.plan(pln.Costmap(grid, info, pln.PlannerParams(allow_unknown=True)),
+                    start, goal).ok
+    r = pln.plan(pln.Costmap(grid, info, pln.PlannerParams(allow_unknown=False)), start, goal)
+    assert not r.ok
+
+
+def test_unknown_costs_more_than_free():
+    grid = np.zeros((40, 60), np.int8)
+    grid[5:25, 10:50] = UNKNOWN  # straight line crosses unknown; a free detour exists below
+    info = GridInfo(0.1, 60, 40)
+    params = pln.PlannerParams(unknown_cost=3.0)
+    r = pln.plan(pln.Costmap(grid, info, params), (0.5, 1.5), (5.5, 1.5))
+    assert r.ok
+    rows = ((r.path[:, 1]) / 0.1).astype(int)
+    cols = ((r.path[:, 0]) / 0.1).astype(int)
+    assert not np.any(grid[rows, cols] == UNKNOWN)
+
+
+def test_marked_obstacles_block_a_corridor(office):
+    grid, info = office
+    start, goal = (2.0, 2.0), (12.0, 2.0)
+    plain = pln.plan(pln.Costmap(grid, info), start, goal)
+    assert plain.ok and plain.path[:, 1].max() < 3.0  # along the south corridor
+    wall = np.column_stack([np.full(60, 8.0), np.linspace(0.1, 3.0, 60)])
+    detour = pln.plan(pln.Costmap(grid, info, obstacles=wall), start, goal)
+    assert detour.ok and detour.path[:, 1].max() > 5.5  # around the central block's north
+    assert pln.path_length(detour.path) > pln.path_length(plain.path) + 5.0
+
+
+def test_costmap_keeps_thin_walls_on_a_coarse_grid():
+    grid = np.zeros((100, 100), np.int8)
+    grid[:, 50] = OCCUPIED  # one 5 cm cell thick wall, no gap
+    info = GridInfo(0.05, 100, 100)
+    costmap = pln.Costmap(grid, info, pln.PlannerParams(resolution=0.2))
+    assert costmap.factor == 4
+    assert not pln.plan(costmap, (1.0, 2.5), (4.0, 2.5)).ok
+
+
+def test_costmap_rejects_mismatched_grid():
+    with pytest.raises(ValueError):
+        pln.Costmap(np.zeros((10, 10), np.int8), GridInfo(0.05, 12, 10))
+
+
+def test_footprint_padding_closes_narrow_passages():
+    grid = np.full((60, 80), OCCUPIED, np.int8)
+    grid[10:50, 2:30] = FREE  # two rooms joined by a 0.6 m wide, 1 m long passage
+    grid[10:50, 50:78] = FREE
+    grid[27:39, 30:50] = FREE  # rows 27..38: 12 cells x 0.05 m = 0.6 m
+    info = GridInfo(0.05, 80, 60)
+    start, goal = (0.5, 1.5), (3.5, 1.5)
+    # needs 2 x (0.17 + padding + 1.2 cells) of free width
+    assert pln.plan(pln.Costmap(grid, info, pln.PlannerParams(footprint_padding=0.0)),
+                    start, goal).ok
+    assert not pln.plan(pln.Costmap(grid, info, pln.PlannerParams(footprint_padding=0.1)),
+                        start, goal).ok

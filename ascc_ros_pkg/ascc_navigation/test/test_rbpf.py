@@ -1,0 +1,353 @@
+"""Tests of the gmapping-compatible mapper's pure code: scan preparation, the
+Rao-Blackwellized particle filter and the mapper front end (no ROS master needed)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ascc_navigation import grid as G
+from ascc_navigation import mapper as M
+from ascc_navigation import pose2d as P
+from ascc_navigation import rbpf as R
+from ascc_navigation import synthetic as S
+from ascc_navigation.laser import LaserMount, prepare_scan
+
+SPEC = S.LaserSpec()
+MOUNT = LaserMount(0.05, 0.0, 0.0)
+
+
+def _room_scan(pose, mount=MOUNT, world=None, noise=0.0, seed=0):
+    truth, info = world if world is not None else S.office_world()
+    return S.simulate_scan(truth == G.OCCUPIED, info, pose, mount, SPEC,
+                           np.random.default_rng(seed), noise_std=noise)
+
+
+def _prepare(ranges, mount=MOUNT, max_urange=3.9, **kw):
+    return prepare_scan(ranges, SPEC.angle_min, SPEC.angle_increment, SPEC.range_min,
+                        SPEC.range_max, mount, max_urange, **kw)
+
+
+# ---------------------------------------------------------------- pose2d
+
+def test_pose_compose_inverse_relative():
+    a = np.array([1.0, -2.0, 0.7])
+    b = np.array([0.3, 0.4, -2.0])
+    assert np.allclose(P.compose(a, P.inverse(a)), 0.0, atol=1e-12)
+    assert np.allclose(P.compose(a, P.relative(a, b)), b)
+    # a point 1 m ahead of a robot at (1, -2) facing 0.7 rad
+    assert np.allclose(P.transform_points(a, [[1.0, 0.0]]), [[1 + math.cos(0.7),
+                                                             -2 + math.sin(0.7)]])
+    assert P.normalize_angle(3 * math.pi) == pytest.approx(-math.pi)
+
+
+# ---------------------------------------------------------------- laser
+
+def test_prepare_scan_classifies_beams_like_gmapping():
+    r = np.full(SPEC.n, 2.0)
+    r[0] = np.nan           # dropped return
+    r[1] = -np.inf          # too close (REP 117)
+    r[2] = 0.01             # below range_min
+    r[3] = np.inf           # no return -> range_max -> beyond the default maxRange
+    r[4] = 3.95             # beyond maxUrange (3.9) but within maxRange: free only
+    sc = _prepare(r)
+    assert sc.n_hits == SPEC.n - 5 and sc.n_free_only == 1
+    # hits lie 2 m from the laser, which sits 5 cm ahead of the base
+    d = np.hypot(sc.hits[:, 0] - 0.05, sc.hits[:, 1])
+    assert np.allclose(d, 2.0)
+    # with maxRange above range_max a no-return beam clears space up to maxUrange
+    sc2 = _prepare(r, max_range=4.5)
+    assert sc2.n_free_only == 2
+    far = np.hypot(sc2.free_polygon[:, 0] - 0.05, sc2.free_polygon[:, 1]).max()
+    assert far == pytest.approx(3.9, abs=1e-6)
+
+
+def test_prepare_scan_offsets_lskip_and_gaps():
+    r = np.full(SPEC.n, 2.0)
+    r[100:200] = np.nan
+    sc = _prepare(r, lskip=2, free_pullback=0.05, hit_offset=0.025)
+    assert np.allclose(np.hypot(sc.hits[:, 0] - 0.05, sc.hits[:, 1]), 2.025)
+    assert sc.match.shape[0] == math.ceil(sc.n_hits / 3)
+    reach = np.hypot(sc.free_polygon[:, 0] - 0.05, sc.free_polygon[:, 1])
+    assert reach.max() == pytest.approx(1.95)
+    # the polygon returns to the laser at the gap and at both ends: 3 origin vertices
+    assert int(np.sum(reach < 1e-9)) == 3
+
+
+def test_free_space_pulls_back_more_where_a_beam_grazes_a_wall():
+    # a wall along x at y = 1 m: the beam straight at it (90 deg) is head-on, beams at a
+    # shallow angle graze it; the free wedge must stop ~one cell short *perpendicular* to it
+    info = G.GridInfo.from_bounds(0.05, -5.0, -1.0, 5.0, 3.0)
+    truth = np.zeros(info.shape, dtype=np.int8)
+    truth[info.world_to_cell(0.0, 1.0)[1]:, :] = G.OCCUPIED
+    mount = LaserMount()
+    r = _room_scan(np.zeros(3), mount=mount, world=(truth, info))
+    sc = _prepare(r, mount=mount, free_pullback=0.05)
+    poly = sc.free_polygon
+    reach = np.hypot(poly[:, 0], poly[:, 1])
+    a = np.arctan2(poly[:, 1], poly[:, 0])
+    near_wall = poly[(reach > 0.5) & (a > 0.3) & (a < math.pi - 0.3)]
+    gap = 1.0 - near_wall[:, 1]  # distance of the free wedge's end from the wall
+    assert gap.min() > 0.02 and np.median(gap) < 0.1
+
+
+def test_beams_past_the_previous_scans_reach_are_not_matched():
+    # only the far beams hit something: with the robot having moved 0.5 m they reach past
+    # maxUrange - motion - new_area_margin, so no particle is matched (odometry only)
+    world = S.office_world()
+    cfg = R.RbpfConfig(particles=3, xmin=0, ymin=0, xmax=14, ymax=10)
+    slam = R.RbpfSlam(cfg, seed=0)
+    p0 = np.array([2.0, 2.0, 0.0])
+    slam.start(p0, _prepare(_room_scan(p0, world=world), max_urange=3.9))
+    p1 = p0 + [0.5, 0.0, 0.0]
+    r = _room_scan(p1, world=world)
+    r[r < 3.4] = np.nan
+    sc = _prepare(r, max_urange=3.9)
+    assert sc.match.shape[0] > 0 and sc.match_range.min() >= 3.4
+    assert slam.update(P.relative(p0, p1), sc).matched == 0
+    # the same beams are matched when the robot has hardly moved
+    assert slam.update(np.zeros(3), sc).matched == 3
+
+
+def test_laser_mount_upside_down_mirrors_and_tilt_rejected():
+    flipped = LaserMount.from_transform(0.1, 0.0, 1.0, 0.0, 0.0, 0.0)  # roll = pi
+    assert flipped.upside_down and flipped.yaw == pytest.approx(0.0)
+    r = np.full(SPEC.n, np.inf)
+    r[SPEC.n - 1] = 1.0  # last beam: +120 deg in the laser frame
+    sc = _prepare(r, mount=flipped)
+    angle = math.atan2(sc.hits[0, 1], sc.hits[0, 0] - 0.1)
+    assert angle == pytest.approx(-SPEC.angles()[-1], abs=1e-9)
+    tilt = math.radians(20.0)
+    with pytest.raises(ValueError):
+        LaserMount.from_transform(0.0, 0.0, 0.0, math.sin(tilt / 2), 0.0, math.cos(tilt / 2))
+
+
+# ---------------------------------------------------------------- filter pieces
+
+def test_resampling_entropy_and_neff():
+    rng = np.random.default_rng(0)
+    assert R.low_variance_resample(np.array([0.0, 0.0, 1.0, 0.0]), rng).tolist() == [2] * 4
+    idx = R.low_variance_resample(np.array([0.5, 0.25, 0.25, 0.0]), rng)
+    assert np.bincount(idx, minlength=4).tolist() == [2, 1, 1, 0]
+    uniform = np.full(8, 1 / 8)
+    assert R.weight_entropy(uniform) == pytest.approx(math.log(8))
+    assert R.weight_entropy(np.array([1.0, 0.0, 0.0])) == 0.0
+    assert R.effective_sample_size(uniform) == pytest.approx(8)
+    w = R.normalized_weights(np.array([-1000.0, 0.0, -1000.0]))
+    assert w[1] == pytest.approx(1.0) and R.effective_sample_size(w) == pytest.approx(1.0)
+
+
+def test_motion_model_mean_and_spread():
+    cfg = R.RbpfConfig(srr=0.1, srt=0.2, str=0.1, stt=0.2)
+    rng = np.random.default_rng(1)
+    start = np.tile([1.0, 2.0, 0.5], (20000, 1))
+    delta = np.array([0.5, 0.0, 0.2])
+    out = R.sample_motion(start, delta, cfg, rng)
+    expected = P.compose(start[0], delta)
+    assert np.allclose(out.mean(axis=0), expected, atol=0.01)
+    s_xy, s_th = R.motion_noise(delta, cfg)
+    assert s_xy == pytest.approx(0.1 * 0.5 + 0.1 * 0.2)
+    assert np.std(out[:, 2]) == pytest.approx(s_th, rel=0.05)
+    # noise-free model moves every particle exactly by the odometry
+    exact = R.sample_motion(start[:3], delta, R.RbpfConfig(srr=0, srt=0, str=0, stt=0), rng)
+    assert np.allclose(exact, expected)
+
+
+def test_register_marks_walls_free_space_and_unknown():
+    world = S.office_world()
+    truth, tinfo = world
+    pose = np.array([2.0, 2.0, 0.3])
+    sc = _prepare(_room_scan(pose, world=world), free_pullback=0.05, hit_offset=0.025)
+    maps = R.ParticleMaps(2, G.GridInfo.from_bounds(0.05, 0.0, 0.0, 14.0, 10.0))
+    maps.register(np.array([pose, pose]), sc)
+    occ = maps.occupancy(0, 0.25)
+    assert np.array_equal(occ, maps.occupancy(1, 0.25))
+    res = G.map_agreement(occ, maps.info, truth, tinfo)
+    assert res["accuracy"] > 0.97 and res["occupied_cells"] > 100
+    # the robot's own cell is free, a cell behind the central block's wall is unknown
+    ix, iy = maps.info.world_to_cell([2.1, 6.0], [2.0, 4.5])
+    assert occ[iy[0], ix[0]] == G.FREE and occ[iy[1], ix[1]] == G.UNKNOWN
+
+
+def test_counts_once_per_scan_and_saturate_without_changing_the_map():
+    pose = np.array([[2.0, 2.0, 0.0]])
+    sc = _prepare(_room_scan(pose[0]), free_pullback=0.05, hit_offset=0.025)
+    maps = R.ParticleMaps(1, G.GridInfo.from_bounds(0.05, 0.0, 0.0, 14.0, 10.0))
+    maps.register(pose, sc)
+    assert maps.visits.max() == 1 and maps.hits.max() == 1  # many beams, one count per scan
+    first = maps.occupancy(0, 0.25)
+    for _ in range(300):
+        maps.register(pose, sc)
+    assert maps.visits.max() <= R.COUNT_MAX
+    assert np.array_equal(maps.occupancy(0, 0.25), first)
+
+
+def test_map_grows_and_keeps_content_in_place():
+    maps = R.ParticleMaps(2, G.GridInfo.from_bounds(0.05, 0.0, 0.0, 2.0, 2.0))
+    maps.hits[1, 10, 20] = 3
+    maps.visits[1, 10, 20] = 4
+    wx, wy = maps.info.cell_to_world(20, 10)
+    assert maps.ensure_contains(-1.0, 0.5, 2.5, 1.0, margin=0.5)
+    assert maps.info.origin_x <= -1.5 + 1e-9 and maps.info.xmax >= 3.0 - 1e-9
+    assert maps.info.height == 40  # y already fitted: no growth there
+    ix, iy = maps.info.world_to_cell(wx, wy)
+    assert maps.hits[1, iy, ix] == 3 and maps.visits[1, iy, ix] == 4
+    assert not maps.ensure_contains(0.0, 0.0, 1.0, 1.0, margin=0.5)
+
+
+def test_scan_matching_corrects_an_odometry_error():
+    world = S.office_world()
+    true0 = np.array([4.0, 1.8, 0.1])
+    true1 = np.array([4.3, 1.85, 0.12])
+    cfg = R.RbpfConfig(particles=4, xmin=0, ymin=0, xmax=14, ymax=10,
+                       srr=0.0, srt=0.0, str=0.0, stt=0.0, motion_prior=0.0)
+    slam = R.RbpfSlam(cfg, seed=0)
+    kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
+    slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+    # odometry claims 6 cm more forward, 4 cm left and 3 degrees more turn than happened
+    wrong = P.compose(true1, [0.06, 0.04, math.radians(3.0)])
+    stats = slam.update(P.relative(true0, wrong), _prepare(_room_scan(true1, world=world), **kw))
+    err = slam.best_pose - true1
+    assert stats.matched == 4
+    assert math.hypot(err[0], err[1]) < 0.015 and abs(err[2]) < math.radians(0.5)
+
+
+def test_motion_prior_keeps_pose_in_an_unconstrained_direction():
+    # A featureless corridor along x: the scan cannot tell x, so the prior must hold it.
+    info = G.GridInfo.from_bounds(0.05, 0.0, 0.0, 40.0, 3.0)
+    truth = np.zeros(info.shape, dtype=np.int8)
+    truth[[0, -1], :] = G.OCCUPIED
+    world = (truth, info)
+    cfg = R.RbpfConfig(particles=8, xmin=0, ymin=0, xmax=40, ymax=3)
+    slam = R.RbpfSlam(cfg, seed=3)
+    kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+    pose = np.array([10.0, 1.5, 0.0])
+    slam.start(pose, _prepare(_room_scan(pose, world=world), **kw))
+    for _ in range(8):
+        new = pose + [0.25, 0.0, 0.0]
+        slam.update(P.relative(pose, new), _prepare(_room_scan(new, world=world), **kw))
+        pose = new
+    assert abs(slam.best_pose[0] - pose[0]) < 0.15
+    assert abs(slam.best_pose[1] - pose[1]) < 0.02
+
+
+# ---------------------------------------------------------------- mapper front end
+
+def _scan_input(stamp, ranges):
+    return M.ScanInput(stamp, ranges, SPEC.angle_min, SPEC.angle_increment, SPEC.range_min,
+                       SPEC.range_max)
+
+
+def _mapper(**params):
+    base = {"particles": 5, "xmin": 0.0, "ymin": 0.0, "xmax": 14.0, "ymax": 10.0,
+            "linearUpdate": 0.25, "angularUpdate": 0.25, "maxUrange": 3.9, "maxRange": 4.5}
+    base.update(params)
+    return M.SlamMapper(M.config_from_parameters(base), seed=0)
+
+
+def test_parameters_keep_gmapping_names_and_check_types():
+    defaults = M.default_parameters()
+    for name in ("particles", "delta", "linearUpdate", "angularUpdate", "temporalUpdate",
+                 "maxUrange", "xmin", "ymax", "srr", "ogain"):
+        assert name in defaults
+    cfg = M.config_from_parameters({"particles": 12, "linearUpdate": 0.3, "delta": 0.1})
+    assert cfg.rbpf.particles == 12 and cfg.linear_update == 0.3 and cfg.rbpf.delta == 0.1
+    with pytest.raises(ValueError, match="particles"):
+        M.config_from_parameters({"particles": 2.5})
+    with pytest.raises(ValueError, match="linearUpdate"):
+        M.config_from_parameters({"linearUpdate": "far"})
+
+
+def test_mapper_updates_only_after_enough_motion():
+    mapper = _mapper()
+    p0 = np.array([2.0, 2.0, 0.0])
+    out = mapper.handle_scan(_scan_input(1.0, _room_scan(p0)), p0, MOUNT)
+    assert out.status == M.STARTED and mapper.started
+    assert np.allclose(mapper.map_to_odom(), 0.0)  # the map frame starts at the odom frame
+    p1 = p0 + [0.1, 0.0, 0.0]
+    assert mapper.handle_scan(_scan_input(1.1, _room_scan(p1)), p1, MOUNT).status == M.SKIPPED
+    p2 = p0 + [0.3, 0.0, 0.0]
+    out = mapper.handle_scan(_scan_input(1.2, _room_scan(p2)), p2, MOUNT)
+    assert out.status == M.UPDATED and out.stats.entropy <= math.log(5) + 1e-9
+    p3 = p2 + [0.0, 0.0, 0.3]
+    assert mapper.handle_scan(_scan_input(1.3, _room_scan(p3)), p3, MOUNT).status == M.UPDATED
+
+
+def test_temporal_update_fires_without_motion():
+    mapper = _mapper(temporalUpdate=2.0)
+    p0 = np.array([2.0, 2.0, 0.0])
+    scan = _room_scan(p0)
+    mapper.handle_scan(_scan_input(0.0, scan), p0, MOUNT)
+    assert mapper.handle_scan(_scan_input(1.0, scan), p0, MOUNT).status == M.SKIPPED
+    assert mapper.handle_scan(_scan_input(2.5, scan), p0, MOUNT).status == M.UPDATED
+
+
+def test_bad_scans_are_rejected_with_a_reason():
+    mapper = _mapper()
+    p0 = np.array([2.0, 2.0, 0.0])
+    bad = [
+        (M.ScanInput(1.0, [], -1.0, 0.01, 0.02, 4.0), "empty"),
+        (_scan_input(1.0, np.full(SPEC.n, np.nan)), "no valid range"),
+        (M.ScanInput(1.0, np.ones(10), -1.0, 0.0, 0.02, 4.0), "angle_increment"),
+        (M.ScanInput(1.0, np.ones(10), -1.0, float("nan"), 0.02, 4.0), "not finite"),
+        (M.ScanInput(1.0, np.ones(10), -1.0, 0.1, 4.0, 1.0), "range_max"),
+    ]
+    for scan, word in bad:
+        out = mapper.handle_scan(scan, p0, MOUNT)
+        assert out.status == M.REJECTED and word in out.reason
+    assert not mapper.started
+    # beams that all return beyond maxUrange cannot start a map
+    far = _mapper(maxUrange=0.5)
+    out = far.handle_scan(_scan_input(1.0, _room_scan(p0)), p0, MOUNT)
+    assert out.status == M.REJECTED and not far.started
+
+
+def test_time_going_backwards_resets_the_map():
+    mapper = _mapper()
+    p0 = np.array([2.0, 2.0, 0.0])
+    mapper.handle_scan(_scan_input(10.0, _room_scan(p0)), p0, MOUNT)
+    p1 = p0 + [0.5, 0.0, 0.0]
+    assert mapper.handle_scan(_scan_input(10.5, _room_scan(p1)), p1, MOUNT).status == M.UPDATED
+    assert mapper.slam.updates == 2
+    out = mapper.handle_scan(_scan_input(3.0, _room_scan(p0)), p0, MOUNT)
+    assert out.status == M.RESET and "backwards" in out.reason
+    assert mapper.slam.updates == 1 and np.allclose(mapper.robot_pose(), p0)
+
+
+def test_odometry_jump_is_ignored_and_absorbed_by_map_to_odom():
+    mapper = _mapper()
+    p0 = np.array([2.0, 2.0, 0.0])
+    mapper.handle_scan(_scan_input(1.0, _room_scan(p0)), p0, MOUNT)
+    before = P.compose(mapper.map_to_odom(), p0)  # robot in map through the TF chain
+    jumped = np.array([-3.0, 5.0, 1.0])  # odometry reset: same place, new odom pose
+    out = mapper.handle_scan(_scan_input(1.1, _room_scan(p0)), jumped, MOUNT)
+    assert out.status == M.REJECTED and "jumped" in out.reason
+    # After the next update the TF chain map->odom->base still gives the true place.
+    moved = P.compose(jumped, [0.3, 0.0, 0.0])
+    out = mapper.handle_scan(_scan_input(1.2, _room_scan(p0 + [0.3, 0, 0])), moved, MOUNT)
+    assert out.status == M.UPDATED
+    after = P.compose(mapper.map_to_odom(), moved)
+    assert np.allclose(after, before + [0.3, 0.0, 0.0], atol=0.03)
+
+
+def test_mapping_a_loop_of_the_synthetic_office():
+    """Short end-to-end run: drifting odometry, noisy scans; the map must agree with the
+    ground truth and the pose must stay close, and the map must grow beyond its start."""
+    truth, tinfo = S.office_world()
+    rng = np.random.default_rng(7)
+    traj = S.waypoint_trajectory(S.office_loop_waypoints()[:6])
+    odom = S.noisy_odometry(traj, rng)
+    mapper = _mapper(particles=15, xmin=0.0, ymin=0.0, xmax=6.0, ymax=4.0, lskip=2)
+    for k in range(0, traj.shape[0], 2):
+        scan = S.simulate_scan(truth == G.OCCUPIED, tinfo, traj[k], MOUNT, SPEC, rng)
+        out = mapper.handle_scan(_scan_input(0.1 * k, scan), odom[k], MOUNT)
+        assert out.status in (M.STARTED, M.UPDATED, M.SKIPPED)
+    est, einfo = mapper.occupancy()
+    res = G.map_agreement(est, einfo, truth, tinfo)
+    assert res["accuracy"] >= 0.95, res
+    assert einfo.xmax > 6.0 and einfo.ymax > 4.0  # grew while exploring
+    # the robot pose through the TF chain map->odom->base is close to the truth
+    final = P.compose(mapper.map_to_odom(), odom[k])
+    assert math.hypot(*(final[:2] - traj[k][:2])) < 0.1
+    # ... much closer than the odometry alone
+    assert math.hypot(*(final[:2] - traj[k][:2])) < 0.5 * math.hypot(*(odom[k][:2] - traj[k][:2]))
