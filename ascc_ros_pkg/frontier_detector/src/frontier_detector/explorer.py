@@ -1,0 +1,251 @@
+"""The integrated exploration loop of fig. 2.7 as a pure state machine (no ROS).
+
+The node feeds it the newest map, robot position, pose entropy, whether move_base is up
+and the outcome of the last goal; each `step()` returns what to do (send a goal, cancel,
+nothing) and the status to publish. Rules:
+
+* plan x* = argmax U (or the nearest candidate) whenever there is no active goal, and on
+  every new map; an active goal is kept while it is still a frontier (a candidate goal or a
+  filtered frontier cell within `goal_frontier_tolerance_m`) and the robot makes progress;
+* a goal is blacklisted when move_base aborts/rejects it, when the robot's path length to it
+  has not shrunk by `progress_min_m` within `progress_timeout_s`, and also once reached (a
+  reached point is never sent again, so an unobservable frontier cannot trap the robot);
+* nothing left to explore (no candidate, all blacklisted, or none worth its trip) on
+  `done_confirmations` plans in a row: cancel the goal, go back
+  to the start pose if `return_to_start`, then publish `done` and stop;
+* start / stop (pause) / resume through `start()` and `stop()`; a stopped explorer cancels
+  its goal and sends nothing; start() after done begins a fresh exploration.
+Bad input (no map, robot off the map or not in free space, move_base missing) only changes
+the status; no goal is sent then.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
+from .grid import MapInfo
+from .planner import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
+
+# Published statuses.
+IDLE = "idle"
+EXPLORING = "exploring"
+RETURNING = "returning"
+DONE = "done"
+WAITING_MAP = "waiting_for_map"
+WAITING_POSE = "waiting_for_pose"
+WAITING_MOVE_BASE = "waiting_for_move_base"
+
+# Goal outcomes reported by the node (from actionlib's terminal states).
+SUCCEEDED = "succeeded"
+ABORTED = "aborted"
+REJECTED = "rejected"
+PREEMPTED = "preempted"
+LOST = "lost"                      # server went away or any other terminal state
+
+SEND = "send"
+CANCEL = "cancel"
+NONE = "none"
+
+
+@dataclass
+class ExplorerParams:
+    progress_timeout_s: float = 30.0         # no progress for this long -> blacklist [s]
+    progress_min_m: float = 0.3              # progress = path length shrinks by this [m]
+    goal_frontier_tolerance_m: float = 0.5   # goal still a frontier if a candidate is closer
+    done_confirmations: int = 2              # empty plans in a row before finishing
+    return_to_start: bool = False            # drive back to the start pose when done
+    start_tolerance_m: float = 0.5           # already at the start if closer than this [m]
+
+
+@dataclass
+class Decision:
+    action: str                                   # SEND, CANCEL or NONE
+    status: str
+    goal_xy: Optional[Tuple[float, float]] = None
+    reason: str = ""
+    plan: Optional[Plan] = None
+    goal_yaw: Optional[float] = None       # heading at the goal [rad]; None: caller picks
+
+
+@dataclass
+class _Goal:
+    xy: Tuple[float, float]
+    sent_at: float
+    best_path_m: float = math.inf
+    improved_at: float = 0.0
+    to_start: bool = False
+
+
+@dataclass
+class ExplorationController:
+    params: ExplorerParams = field(default_factory=ExplorerParams)
+    planner: PlannerParams = field(default_factory=PlannerParams)
+    state: str = IDLE
+    blacklist: List[Tuple[float, float]] = field(default_factory=list)
+    goals_sent: int = 0
+    start_xy: Optional[Tuple[float, float]] = None
+    _goal: Optional[_Goal] = None
+    _outcome: Optional[str] = None
+    _empty_plans: int = 0
+    _last_map_stamp: Optional[float] = None
+    _paused: bool = False
+
+    # ---- commands ---------------------------------------------------------------
+    def start(self) -> None:
+        """Start, or resume after stop(); after done, begin a fresh exploration."""
+        if self.state == DONE:
+            self.blacklist.clear()
+            self.start_xy = None
+        self._paused = False
+        self._empty_plans = 0
+        self._last_map_stamp = None
+        self.state = EXPLORING
+
+    def stop(self) -> bool:
+        """Pause; returns True if a goal is active and must be cancelled by the caller."""
+        self._paused = True
+        self.state = IDLE if self.state != DONE else DONE
+        active = self._goal is not None
+        self._goal = None
+        return active
+
+    def report_outcome(self, outcome: str) -> None:
+        """Terminal state of the goal sent last (from the action client's done callback)."""
+        self._outcome = outcome
+
+    @property
+    def active_goal(self) -> Optional[Tuple[float, float]]:
+        return None if self._goal is None else self._goal.xy
+
+    # ---- the loop -----------------------------------------------------------------
+    def step(self, now: float, grid: Optional[np.ndarray], info: Optional[MapInfo],
+             robot_xy: Optional[Tuple[float, float]], map_stamp: Optional[float],
+             move_base_ready: bool, entropy: Optional[float] = None) -> Decision:
+        """One planning tick; see the module docstring for the rules."""
+        if self._paused or self.state in (IDLE, DONE):
+            return Decision(NONE, self.state)
+        outcome, self._outcome = self._outcome, None
+        if outcome is not None and self._goal is not None:
+            done = self._handle_outcome(outcome)
+            if done is not None:
+                return done
+        if not move_base_ready:
+            self._goal = None              # whatever was active died with the server
+            return Decision(NONE, WAITING_MOVE_BASE, reason="move_base action server not up")
+        if grid is None or info is None:
+            return Decision(NONE, WAITING_MAP, reason="no map received yet")
+        if robot_xy is None:
+            return Decision(NONE, WAITING_POSE, reason="no map -> base_link transform")
+        if self.start_xy is None:
+            self.start_xy = (float(robot_xy[0]), float(robot_xy[1]))
+        if self.state == RETURNING:
+            return Decision(NONE, RETURNING)
+        new_map = map_stamp != self._last_map_stamp
+        if self._goal is not None and not new_map and not self._stalled(now):
+            return Decision(NONE, EXPLORING)
+        self._last_map_stamp = map_stamp
+        result = plan(grid, info, robot_xy, self.planner, entropy, self.blacklist)
+        return self._decide(now, result, robot_xy)
+
+    # ---- helpers ------------------------------------------------------------------
+    def _handle_outcome(self, outcome: str) -> Optional[Decision]:
+        goal = self._goal
+        assert goal is not None
+        if outcome == PREEMPTED:
+            return None                    # we replaced it ourselves
+        self._goal = None
+        if goal.to_start:
+            self.state = DONE
+            why = "back at the start pose" if outcome == SUCCEEDED else \
+                f"return to start {outcome}; stopping where we are"
+            return Decision(NONE, DONE, reason=why)
+        self.blacklist.append(goal.xy)     # reached or failed: never send it again
+        return None
+
+    def _stalled(self, now: float) -> bool:
+        g = self._goal
+        return g is not None and now - g.improved_at > self.params.progress_timeout_s
+
+    def _decide(self, now: float, result: Plan, robot_xy: Tuple[float, float]) -> Decision:
+        if result.status in (STATUS_NO_FRONTIERS, STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN):
+            self._empty_plans += 1
+            if self._empty_plans < self.params.done_confirmations:
+                return Decision(NONE, EXPLORING, reason=result.status, plan=result)
+            return self._finish(now, robot_xy, result)
+        if result.status != STATUS_OK:
+            # Robot off the map / not in free space / empty map: keep any active goal.
+            return Decision(NONE, result.status, reason=result.status, plan=result)
+        self._empty_plans = 0
+        g = self._goal
+        if g is not None:
+            path = self._path_to(result, g.xy)
+            if path < g.best_path_m - self.params.progress_min_m or not math.isfinite(
+                    g.best_path_m):
+                g.best_path_m, g.improved_at = path, now
+            if now - g.improved_at > self.params.progress_timeout_s:
+                self.blacklist.append(g.xy)
+                self._goal = None
+                reason = f"no progress towards ({g.xy[0]:.2f}, {g.xy[1]:.2f}); blacklisted"
+                return self._send_best(now, result, reason, replan=True)
+            if self._still_frontier(result, g.xy):
+                return Decision(NONE, EXPLORING, plan=result)
+            return self._send_best(now, result, "goal is no longer a frontier")
+        return self._send_best(now, result, "new goal")
+
+    def _send_best(self, now: float, result: Plan, reason: str, replan: bool = False
+                   ) -> Decision:
+        if replan:
+            # The plan was made with the old blacklist: mask the newly blacklisted point.
+            bx, by = self.blacklist[-1]
+            d = np.hypot(result.goals_xy[:, 0] - bx, result.goals_xy[:, 1] - by)
+            scores = result.scores
+            assert scores is not None
+            keep = result.allowed & (d > self.planner.blacklist_radius_m) & np.isfinite(
+                scores.path_m)
+            if not keep.any():
+                return Decision(CANCEL, EXPLORING, reason=reason, plan=result)
+            scores.best = int(np.argmax(np.where(keep, scores.total, -np.inf)))
+            result.allowed = keep
+        goal = result.goal_xy
+        if goal is None:
+            return Decision(NONE, EXPLORING, reason=reason, plan=result)
+        self._goal = _Goal(goal, now, improved_at=now,
+                           best_path_m=float(result.scores.path_m[result.best]))
+        self.goals_sent += 1
+        return Decision(SEND, EXPLORING, goal, reason, result, result.goal_yaw)
+
+    def _finish(self, now: float, robot_xy: Tuple[float, float], result: Plan) -> Decision:
+        self._goal = None
+        if self.params.return_to_start and self.start_xy is not None and math.hypot(
+                robot_xy[0] - self.start_xy[0], robot_xy[1] - self.start_xy[1]
+        ) > self.params.start_tolerance_m:
+            self.state = RETURNING
+            self._goal = _Goal(self.start_xy, now, improved_at=now, to_start=True)
+            self.goals_sent += 1
+            return Decision(SEND, RETURNING, self.start_xy, "exploration finished", result)
+        self.state = DONE
+        return Decision(CANCEL, DONE, reason="nothing left to explore", plan=result)
+
+    @staticmethod
+    def _path_to(result: Plan, xy: Tuple[float, float]) -> float:
+        r, c = result.info.world_to_cell(xy[0], xy[1])
+        return float(result.frontiers.path_length_m(np.array([r]), np.array([c]))[0])
+
+    def _still_frontier(self, result: Plan, xy: Tuple[float, float]) -> bool:
+        """A candidate goal or a filtered frontier cell within the tolerance of xy."""
+        tol2 = self.params.goal_frontier_tolerance_m ** 2
+        goals = result.goals_xy[result.allowed] if result.goals_xy.shape[0] else result.goals_xy
+        if goals.shape[0] and float(((goals - np.asarray(xy)) ** 2).sum(axis=1).min()) <= tol2:
+            return True
+        cells = result.frontiers.phase2_rc
+        if cells.shape[0] == 0:
+            return False
+        r, c = result.info.world_to_cell(xy[0], xy[1])
+        res = result.info.resolution
+        d2 = ((cells[:, 0] - r) ** 2 + (cells[:, 1] - c) ** 2).astype(np.float64) * res * res
+        return bool(d2.min() <= tol2)

@@ -1,0 +1,574 @@
+"""Frontier candidate generation in the thesis's three phases (section 2.3, fig. 2.6).
+
+Input: a trinary int8 grid (see `grid.to_trinary`), its resolution and the robot's cell.
+
+Phase 1, preliminary generation: FREE cells with an UNKNOWN cell within
+    `neighbourhood_cells` (Chebyshev distance). Cells outside the grid count as not unknown:
+    there is nothing to explore beyond the map's edge.
+Phase 2, filtering: a phase-1 cell survives if
+    - its frontier segment (8-connected component of phase-1 cells) is at least
+      `min_frontier_size_m` long (cells x resolution): smaller gaps are noise or too narrow;
+    - it is at least `footprint_radius_m` from every OCCUPIED cell (robot footprint fits);
+    - it is reachable from the robot through such cells (8-connected flood fill).
+Phase 3, grouping: surviving cells of one segment are cut into clusters no longer than
+    `cluster_size_m` along the segment's main axis; each cluster's goal point is the cell
+    nearest its centroid (within `goal_search_radius_m`) that the robot can stand on: reachable,
+    and at least `footprint_radius_m` from occupied AND from unknown cells (the unknown
+    right behind a frontier may be a wall). Clusters without such a cell are dropped.
+    Clusters without such a cell within `goal_search_radius_m`, and the clusters of segments
+    with no reachable cell at all (behind a gap too narrow for the footprint, say), get a
+    view point instead: the nearest reachable safe cell within `observe_range_m` with a
+    line of sight to the cluster centroid (`observe_only` is True for them; 0 disables
+    this, and such clusters are dropped).
+
+Everything is vectorised (OpenCV morphology, flood fill, connected components; numpy on the
+sparse frontier cells) and works inside the bounding box of the known cells. Each phase's
+wall time is recorded separately in `FrontierResult.timings_ms`. No ROS import here.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Dict, Optional, Tuple
+
+import cv2
+import numpy as np
+
+from .grid import FREE, OCCUPIED, UNKNOWN
+from .paths import CoarseGraph, block_size, build_graph, path_lengths
+
+# Outcome of `find_frontiers`; the node publishes it on ~status.
+STATUS_OK = "ok"
+STATUS_EMPTY_MAP = "empty_map"                     # no cell or no known cell
+STATUS_ROBOT_OUTSIDE = "robot_outside_map"         # robot cell not inside the grid
+STATUS_ROBOT_BLOCKED = "robot_not_in_free_space"   # no traversable cell near the robot
+STATUS_NO_FRONTIERS = "no_frontiers"               # nothing left to explore from here
+
+OFF_MAP = 50                                       # padding value, see _window_view
+
+
+@dataclass
+class FrontierParams:
+    """Parameters of the three phases; lengths in metres."""
+
+    neighbourhood_cells: int = 1         # phase 1: unknown cell within this many cells
+    min_frontier_size_m: float = 0.35    # phase 2: shortest frontier segment kept [m]
+    footprint_radius_m: float = 0.3      # phase 2: clearance from obstacles [m] (see README)
+    robot_snap_radius_m: float = 0.5     # robot cell moved to the nearest traversable one [m]
+    cluster_size_m: float = 2.0          # phase 3: longest cluster along its segment [m]
+    path_resolution_m: float = 0.25      # block size of the path-length grid [m] (capped)
+    goal_search_radius_m: float = 0.6    # phase 3: goal within this of the centroid [m]
+    observe_range_m: float = 2.5         # unreachable segments: view point within this [m]
+    observe_rays: int = 72               # rays searched for a view point
+
+    def validate(self) -> None:
+        if self.neighbourhood_cells < 1:
+            raise ValueError("neighbourhood_cells must be >= 1")
+        for name in ("min_frontier_size_m", "footprint_radius_m", "robot_snap_radius_m",
+                     "path_resolution_m", "goal_search_radius_m", "observe_range_m"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"{name} must be >= 0")
+        if self.cluster_size_m <= 0.0:
+            raise ValueError("cluster_size_m must be > 0")
+
+
+@dataclass
+class FrontierResult:
+    """Candidates after each phase, in full-grid (row, col) cells, plus what phase 2 built.
+
+    `window` = (row0, col0, rows, cols) is the part of the grid that was processed;
+    `traversable` (uint8, 255 = free with clearance), the coarse `graph` and `path_m` (path
+    length [m] from the robot per coarse block) cover that window.
+    """
+
+    status: str
+    phase1_rc: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))
+    phase2_rc: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))
+    goals_rc: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))
+    centroids_rc: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float64))
+    cluster_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    observe_only: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    unreachable_rc: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))
+    phase2_cluster: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    robot_rc: Optional[Tuple[int, int]] = None
+    window: Tuple[int, int, int, int] = (0, 0, 0, 0)
+    traversable: Optional[np.ndarray] = None
+    graph: Optional[CoarseGraph] = None
+    path_m: Optional[np.ndarray] = None
+    timings_ms: Dict[str, float] = field(default_factory=dict)
+
+    @property
+    def n_candidates(self) -> int:
+        return int(self.goals_rc.shape[0])
+
+    def path_length_m(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Path length [m] from the robot to full-grid cells; inf if not reachable.
+
+        A cell is reachable if it is traversable and its coarse block was reached.
+        """
+        rows = np.atleast_1d(np.asarray(rows, dtype=np.int64))
+        cols = np.atleast_1d(np.asarray(cols, dtype=np.int64))
+        out = np.full(rows.shape, np.inf)
+        if self.traversable is None or self.graph is None or self.path_m is None:
+            return out
+        r0, c0, h, w = self.window
+        lr, lc = rows - r0, cols - c0
+        inside = (lr >= 0) & (lr < h) & (lc >= 0) & (lc < w)
+        lr, lc = lr[inside], lc[inside]
+        d = self.path_m[self.graph.nodes(lr, lc)].astype(np.float64)
+        d[self.traversable[lr, lc] == 0] = np.inf
+        out[inside] = d
+        return out
+
+
+def disk_kernel(radius_cells: float) -> np.ndarray:
+    """uint8 structuring element: cells whose centre is within radius_cells of the middle."""
+    r = max(0, int(math.floor(radius_cells)))
+    yy, xx = np.mgrid[-r: r + 1, -r: r + 1]
+    return ((xx * xx + yy * yy) <= radius_cells * radius_cells + 1e-9).astype(np.uint8)
+
+
+def dilate_disk(mask: np.ndarray, radius_cells: float) -> np.ndarray:
+    """Dilate a uint8 mask by `disk_kernel(radius_cells)`, done exactly as the maximum of a
+    few rectangle dilations (rows of the disc with equal half-width), which OpenCV runs
+    much faster than a disc-shaped kernel. Outside the mask counts as empty."""
+    r = max(0, int(math.floor(radius_cells)))
+    widest = {}                                  # half-width -> tallest row offset with it
+    for dy in range(r + 1):
+        half = int(math.floor(math.sqrt(max(0.0, radius_cells ** 2 - dy * dy)) + 1e-9))
+        widest[half] = dy
+    out = None
+    for half, dy in widest.items():
+        d = cv2.dilate(mask, np.ones((2 * dy + 1, 2 * half + 1), np.uint8),
+                       borderType=cv2.BORDER_CONSTANT, borderValue=0)
+        out = d if out is None else cv2.max(out, d)
+    return out
+
+
+def known_window(grid: np.ndarray, margin: int) -> Optional[Tuple[int, int, int, int]]:
+    """(row0, col0, rows, cols) of the bounding box of known cells grown by margin, or None."""
+    known = cv2.compare(grid.view(np.uint8), 255, cv2.CMP_NE)     # int8 -1 is uint8 255
+    x, y, w, h = cv2.boundingRect(known)
+    if w == 0 or h == 0:
+        return None
+    r0, c0 = max(0, y - margin), max(0, x - margin)
+    r1, c1 = min(grid.shape[0], y + h + margin), min(grid.shape[1], x + w + margin)
+    return r0, c0, r1 - r0, c1 - c0
+
+
+def phase1_mask(sub: np.ndarray, neighbourhood_cells: int) -> np.ndarray:
+    """uint8 mask (255) of FREE cells with an UNKNOWN cell within the neighbourhood."""
+    return _phase1(sub, neighbourhood_cells)[0]
+
+
+def _phase1(sub: np.ndarray, neighbourhood_cells: int) -> Tuple[np.ndarray, np.ndarray]:
+    """(phase-1 mask, unknown mask), both uint8 0/255."""
+    u8 = sub.view(np.uint8)
+    free = cv2.compare(u8, FREE, cv2.CMP_EQ)
+    unknown = cv2.compare(u8, UNKNOWN & 0xFF, cv2.CMP_EQ)
+    size = 2 * neighbourhood_cells + 1
+    near_unknown = cv2.dilate(unknown, np.ones((size, size), np.uint8),
+                              borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return cv2.bitwise_and(free, near_unknown), unknown
+
+
+def traversable_mask(sub: np.ndarray, radius_cells: float) -> np.ndarray:
+    """uint8 mask (255) of FREE cells at least radius_cells from every OCCUPIED cell."""
+    u8 = sub.view(np.uint8)
+    free = cv2.compare(u8, FREE, cv2.CMP_EQ)
+    if radius_cells <= 0.0:
+        return free
+    occupied = cv2.compare(u8, OCCUPIED, cv2.CMP_EQ)
+    # Cells at distance exactly radius are still allowed: dilate by a disc just inside it.
+    blocked = dilate_disk(occupied, max(0.0, radius_cells - 1e-6))
+    return cv2.bitwise_and(free, cv2.bitwise_not(blocked))
+
+
+def snap_to_mask(mask: np.ndarray, row: int, col: int, radius_cells: int
+                 ) -> Optional[Tuple[int, int]]:
+    """The nonzero cell of mask closest to (row, col) within radius_cells, or None."""
+    h, w = mask.shape
+    if 0 <= row < h and 0 <= col < w and mask[row, col]:
+        return row, col
+    r0, r1 = max(0, row - radius_cells), min(h, row + radius_cells + 1)
+    c0, c1 = max(0, col - radius_cells), min(w, col + radius_cells + 1)
+    if r0 >= r1 or c0 >= c1:
+        return None
+    rr, cc = np.nonzero(mask[r0:r1, c0:c1])
+    if rr.size == 0:
+        return None
+    d2 = (rr + r0 - row) ** 2 + (cc + c0 - col) ** 2
+    k = int(np.argmin(d2))
+    if d2[k] > radius_cells * radius_cells:
+        return None
+    return int(rr[k] + r0), int(cc[k] + c0)
+
+
+def mask_cells(mask: np.ndarray, block: int) -> Tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) of the nonzero cells of a sparse uint8 mask, in row-major order.
+
+    Looks only inside the block x block tiles that hold a nonzero cell (found on a
+    downsampled copy), which is several times faster than np.nonzero on a large, mostly
+    empty mask. The mask's shape must be a multiple of block.
+    """
+    h, w = mask.shape
+    if block <= 1 or h % block or w % block:
+        rr, cc = np.nonzero(mask)
+        return rr.astype(np.int64), cc.astype(np.int64)
+    # Area averaging of 0/255 over a tile is > 0 iff the tile holds a nonzero cell.
+    tiles = cv2.resize(mask, (w // block, h // block), interpolation=cv2.INTER_AREA)
+    tr, tc = np.nonzero(tiles)
+    oy, ox = np.divmod(np.arange(block * block), block)
+    rr = (tr[:, None] * block + oy[None, :]).ravel()
+    cc = (tc[:, None] * block + ox[None, :]).ravel()
+    hit = mask[rr, cc] > 0
+    rr, cc = rr[hit], cc[hit]
+    order = np.argsort(rr * w + cc, kind="stable")
+    return rr[order].astype(np.int64), cc[order].astype(np.int64)
+
+
+def label_cells(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Label 8-connected groups of sparse cells (0..n_groups-1 per cell).
+
+    Union-find done with whole-array operations: edges to the E, SW, S and SE neighbour
+    (looked up by binary search), then rounds of hooking each edge's roots onto the smaller
+    one followed by pointer jumping, until every edge joins cells of one root.
+    """
+    n = rows.size
+    if n == 0:
+        return np.zeros(0, np.int64)
+    width = int(cols.max()) + 3
+    lin = (rows.astype(np.int64) + 1) * width + (cols.astype(np.int64) + 1)
+    order = np.argsort(lin, kind="stable")
+    key = lin[order]
+    src, dst = [], []
+    for off in (1, width - 1, width, width + 1):
+        pos = np.searchsorted(key, key + off)
+        pos_c = np.minimum(pos, n - 1)
+        hit = key[pos_c] == key + off
+        src.append(np.nonzero(hit)[0])
+        dst.append(pos_c[hit])
+    u, v = np.concatenate(src), np.concatenate(dst)
+    parent = np.arange(n, dtype=np.int64)
+    while u.size:
+        pu, pv = parent[u], parent[v]
+        differ = pu != pv
+        if not differ.any():
+            break
+        lo = np.minimum(pu, pv)[differ]
+        np.minimum.at(parent, pu[differ], lo)
+        np.minimum.at(parent, pv[differ], lo)
+        while True:                                   # pointer jumping to the roots
+            grand = parent[parent]
+            if np.array_equal(grand, parent):
+                break
+            parent = grand
+    _, labels_sorted = np.unique(parent, return_inverse=True)
+    labels = np.empty(n, np.int64)
+    labels[order] = labels_sorted
+    return labels
+
+
+def group_clusters(rows: np.ndarray, cols: np.ndarray, segment: np.ndarray,
+                   cluster_cells: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase 3 on sparse cells: cut each segment along its main axis into pieces no longer
+    than cluster_cells.
+
+    Returns (cluster id per cell, centroid (row, col) per cluster as an (n, 2) array,
+    cells per cluster).
+    """
+    seg_ids, seg = np.unique(segment, return_inverse=True)
+    n_seg = seg_ids.size
+    r, c = rows.astype(np.float64), cols.astype(np.float64)
+    cnt = np.bincount(seg, minlength=n_seg).astype(np.float64)
+    mr = np.bincount(seg, r, n_seg) / cnt
+    mc = np.bincount(seg, c, n_seg) / cnt
+    dr, dc = r - mr[seg], c - mc[seg]
+    # Main axis of each segment from its 2x2 covariance (closed-form eigenvector).
+    srr = np.bincount(seg, dr * dr, n_seg)
+    scc = np.bincount(seg, dc * dc, n_seg)
+    src = np.bincount(seg, dr * dc, n_seg)
+    theta = 0.5 * np.arctan2(2.0 * src, scc - srr)           # angle from the col axis
+    t = dc * np.cos(theta)[seg] + dr * np.sin(theta)[seg]    # position along the axis
+    tmin = np.full(n_seg, np.inf)
+    tmax = np.full(n_seg, -np.inf)
+    np.minimum.at(tmin, seg, t)
+    np.maximum.at(tmax, seg, t)
+    extent = tmax - tmin + 1.0
+    pieces = np.maximum(1, np.ceil(extent / cluster_cells)).astype(np.int64)
+    piece = np.minimum(((t - tmin[seg]) / (extent[seg] / pieces[seg])).astype(np.int64),
+                       pieces[seg] - 1)
+    offsets = np.concatenate(([0], np.cumsum(pieces)[:-1]))
+    _, cluster = np.unique(offsets[seg] + piece, return_inverse=True)
+    n_cl = int(cluster.max()) + 1 if cluster.size else 0
+    size = np.bincount(cluster, minlength=n_cl)
+    cr = np.bincount(cluster, r, n_cl) / size
+    cc = np.bincount(cluster, c, n_cl) / size
+    return cluster, np.stack([cr, cc], axis=1), size
+
+
+def disk_offsets(radius_cells: float) -> Tuple[np.ndarray, np.ndarray]:
+    """(drow, dcol) of the cells within radius_cells, nearest first."""
+    r = max(0, int(math.floor(radius_cells)))
+    yy, xx = np.mgrid[-r: r + 1, -r: r + 1]
+    d2 = (yy * yy + xx * xx).ravel()
+    keep = d2 <= radius_cells * radius_cells + 1e-9
+    order = np.argsort(d2[keep], kind="stable")
+    return yy.ravel()[keep][order], xx.ravel()[keep][order]
+
+
+def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndarray,
+                search_cells: float, radius_cells: float,
+                near_unknown: Optional[np.ndarray] = None) -> np.ndarray:
+    """Per centroid, the nearest safe cell within search_cells; (-1, -1) if none.
+
+    Safe: traversable and no unknown cell within radius_cells. Works on one small patch per
+    centroid (gathered, dilated as one stacked image, so the cost does not depend on the
+    map's size); patches overlap-free thanks to a radius_cells margin around the search disc.
+    A precomputed `near_unknown` mask (nonzero = unknown within radius_cells) skips that.
+    """
+    h, w = traversable.shape
+    n = centroids.shape[0]
+    if n == 0:
+        return np.zeros((0, 2), np.int64)
+    s_cells = max(0, int(math.floor(search_cells)))
+    margin = int(math.ceil(radius_cells)) + 1
+    half = s_cells + margin
+    side = 2 * half + 1
+    base = np.rint(centroids).astype(np.int64)
+    oy, ox = np.divmod(np.arange(side * side, dtype=np.int64), side)
+    rr = base[:, :1] + (oy - half)[None, :]                  # (n, side * side)
+    cc = base[:, 1:] + (ox - half)[None, :]
+    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    flat = np.clip(rr, 0, h - 1) * w + np.clip(cc, 0, w - 1)
+    if near_unknown is not None:
+        near = near_unknown.ravel()[flat]
+    else:
+        unk = unknown.ravel()[flat]
+        unk[~inside] = 0
+        near = dilate_disk(unk.reshape(n * side, side),
+                           max(0.0, radius_cells - 1e-6)).reshape(n, side * side)
+    dr, dc = disk_offsets(search_cells)
+    k = (dr + half) * side + (dc + half)                     # search disc, nearest first
+    valid = inside[:, k] & (near[:, k] == 0) & (traversable.ravel()[flat[:, k]] > 0)
+    first = valid.argmax(axis=1)
+    found = valid[np.arange(n), first]
+    goals = np.stack([base[:, 0] + dr[first], base[:, 1] + dc[first]], axis=1)
+    goals[~found] = -1
+    return goals
+
+
+def view_goals(sub: np.ndarray, traversable: np.ndarray, unknown: np.ndarray,
+               reachable, centroids: np.ndarray, range_cells: float, radius_cells: float,
+               n_rays: int, near_unknown: Optional[np.ndarray] = None) -> np.ndarray:
+    """View points for frontier clusters the robot cannot reach; (-1, -1) if none.
+
+    Rays go out from each centroid (n_rays, one cell per step, up to range_cells) and stop
+    at the first occupied cell, so every sample has a line of sight to the centroid; the
+    nearest sample that is traversable, reachable (`reachable(rows, cols)` -> bool) and at
+    least radius_cells from unknown cells is the view point. `near_unknown` (nonzero =
+    unknown within radius_cells) may be precomputed for the whole mask; otherwise it is
+    computed on one patch per centroid. Steps are searched in chunks, nearest first, and
+    clusters drop out of the search once they have a view point.
+    """
+    h, w = traversable.shape
+    n = centroids.shape[0]
+    goals = np.full((n, 2), -1, np.int64)
+    if n == 0:
+        return goals
+    steps = max(1, int(math.ceil(range_cells)))
+    base = np.rint(centroids).astype(np.int64)
+    theta = np.arange(n_rays) * (2.0 * math.pi / n_rays)
+    s_all = np.arange(1, steps + 1)
+    dr_all = np.rint(np.sin(theta)[None, :] * s_all[:, None]).astype(np.int64)   # (S, R)
+    dc_all = np.rint(np.cos(theta)[None, :] * s_all[:, None]).astype(np.int64)
+    open_rays = np.ones((n, n_rays), bool)          # no obstacle met yet on the ray
+    todo = np.arange(n)
+    chunk = max(8, int(math.ceil(radius_cells)) * 3)
+    for s0 in range(0, steps, chunk):
+        if todo.size == 0:
+            break
+        s1 = min(steps, s0 + chunk)
+        dr, dc = dr_all[s0:s1], dc_all[s0:s1]
+        m = todo.size
+        rr = base[todo, :1] + dr.ravel()[None, :]                # (m, chunk * R)
+        cc = base[todo, 1:] + dc.ravel()[None, :]
+        inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+        flat = np.where(inside, rr * w + cc, 0)
+        occ = ((sub.ravel()[flat] == OCCUPIED) | ~inside).reshape(m, s1 - s0, n_rays)
+        seen = np.logical_and.accumulate(~occ, axis=1)            # ray still open here
+        blocked_before = np.ones_like(occ)
+        blocked_before[:, 0] = ~open_rays[todo]
+        blocked_before[:, 1:] = ~(seen[:, :-1] & open_rays[todo][:, None, :])
+        open_rays[todo] &= seen[:, -1]
+        valid = inside & ~blocked_before.reshape(m, -1) & (traversable.ravel()[flat] > 0)
+        if near_unknown is not None:
+            valid &= near_unknown.ravel()[flat] == 0
+        else:
+            half = s1 + int(math.ceil(radius_cells)) + 1
+            side = 2 * half + 1
+            oy, ox = np.divmod(np.arange(side * side, dtype=np.int64), side)
+            pr = base[todo, :1] + (oy - half)[None, :]
+            pc = base[todo, 1:] + (ox - half)[None, :]
+            pin = (pr >= 0) & (pr < h) & (pc >= 0) & (pc < w)
+            unk = np.where(pin, unknown.ravel()[np.where(pin, pr * w + pc, 0)], 0)
+            near = dilate_disk(unk.astype(np.uint8).reshape(m * side, side),
+                               max(0.0, radius_cells - 1e-6))
+            k = ((dr + half) * side + (dc + half)).ravel()
+            valid &= near.reshape(m, side * side)[:, k] == 0
+        cand = np.nonzero(valid)
+        ok = reachable(flat[cand] // w, flat[cand] % w)
+        valid[cand[0][~ok], cand[1][~ok]] = False
+        first = valid.argmax(axis=1)                              # nearest step first
+        found = valid[np.arange(m), first]
+        goals[todo[found], 0] = rr[np.arange(m), first][found]
+        goals[todo[found], 1] = cc[np.arange(m), first][found]
+        todo = todo[~found]
+    return goals
+
+
+def _aligned_window(grid_shape: Tuple[int, int], window: Tuple[int, int, int, int],
+                    multiple: int) -> Tuple[int, int, int, int]:
+    """Grow a window to a multiple of `multiple` cells, inside the grid when possible."""
+    r0, c0, h, w = window
+    out = []
+    for start, size, limit in ((r0, h, grid_shape[0]), (c0, w, grid_shape[1])):
+        size2 = -(-size // multiple) * multiple
+        start = min(start, max(0, limit - size2))
+        out.append((start, size2))
+    return out[0][0], out[1][0], out[0][1], out[1][1]
+
+
+def _window_view(grid: np.ndarray, window: Tuple[int, int, int, int]) -> np.ndarray:
+    """grid[window], padded where the window sticks out of a small grid with OFF_MAP: not
+    free, unknown or occupied, so the map's edge stays no frontier and no obstacle."""
+    r0, c0, h, w = window
+    sub = grid[r0: r0 + h, c0: c0 + w]
+    if sub.shape != (h, w):
+        padded = np.full((h, w), OFF_MAP, np.int8)
+        padded[: sub.shape[0], : sub.shape[1]] = sub
+        sub = padded
+    return sub
+
+
+def find_frontiers(grid: np.ndarray, resolution: float, robot_rc: Tuple[int, int],
+                   params: Optional[FrontierParams] = None) -> FrontierResult:
+    """Run the three phases on a trinary grid; never raises on bad maps or robot poses."""
+    p = params or FrontierParams()
+    p.validate()
+    grid = np.ascontiguousarray(grid, dtype=np.int8)
+    if grid.ndim != 2 or grid.size == 0 or not resolution > 0.0:
+        return FrontierResult(STATUS_EMPTY_MAP)
+    rr, rc = int(robot_rc[0]), int(robot_rc[1])
+    if not (0 <= rr < grid.shape[0] and 0 <= rc < grid.shape[1]):
+        return FrontierResult(STATUS_ROBOT_OUTSIDE)
+    times: Dict[str, float] = {}
+    radius_cells = p.footprint_radius_m / resolution
+    k = block_size(resolution, p.footprint_radius_m, p.path_resolution_m)
+    tile = k * max(1, int(round(16 / k)))                 # multiple of k for mask_cells
+
+    # ---- phase 1: free cells next to unknown, then their 8-connected segments
+    t0 = time.perf_counter()
+    margin = p.neighbourhood_cells + int(math.ceil(radius_cells)) + 1
+    window = known_window(grid, margin)
+    if window is None:
+        return FrontierResult(STATUS_EMPTY_MAP, timings_ms={"phase1": 0.0})
+    window = _aligned_window(grid.shape, window, tile)
+    r0, c0 = window[0], window[1]
+    sub = _window_view(grid, window)
+    p1, unknown = _phase1(sub, p.neighbourhood_cells)
+    p1_r, p1_c = mask_cells(p1, tile)
+    segment = label_cells(p1_r, p1_c)
+    times["phase1"] = (time.perf_counter() - t0) * 1e3
+    result = FrontierResult(STATUS_OK, window=window, timings_ms=times)
+    result.phase1_rc = np.stack([p1_r + r0, p1_c + c0], axis=1).astype(np.int32)
+
+    # ---- phase 2: size, clearance and reachability (path lengths come out of it)
+    t0 = time.perf_counter()
+    trav = traversable_mask(sub, radius_cells)
+    snap = snap_to_mask(trav, rr - r0, rc - c0, int(math.ceil(p.robot_snap_radius_m / resolution)))
+    if snap is None:
+        times["phase2"] = (time.perf_counter() - t0) * 1e3
+        result.status = STATUS_ROBOT_BLOCKED
+        return result
+    result.robot_rc = (snap[0] + r0, snap[1] + c0)
+    graph = build_graph(trav, k)
+    dist = path_lengths(graph, graph.node(*snap), resolution)
+    result.traversable, result.graph, result.path_m = trav, graph, dist
+    seg_len_m = np.bincount(segment).astype(np.float64) * resolution
+    size_ok = seg_len_m[segment] >= p.min_frontier_size_m - 1e-9
+    keep = size_ok & (trav[p1_r, p1_c] > 0)
+    keep &= np.isfinite(dist[graph.nodes(p1_r, p1_c)])
+    p2_r, p2_c, seg = p1_r[keep], p1_c[keep], segment[keep]
+    # Segments without a single reachable cell (e.g. behind a gap too narrow for the
+    # footprint) are not candidates, but may be looked at from a reachable view point.
+    far = np.zeros(p1_r.size, bool)
+    if p.observe_range_m > 0.0 and p1_r.size:
+        seg_reached = np.bincount(segment, weights=keep.astype(np.float64)) > 0
+        far = size_ok & ~seg_reached[segment]
+    times["phase2"] = (time.perf_counter() - t0) * 1e3
+    result.phase2_rc = np.stack([p2_r + r0, p2_c + c0], axis=1).astype(np.int32)
+    result.unreachable_rc = np.stack([p1_r[far] + r0, p1_c[far] + c0], axis=1).astype(np.int32)
+
+    # ---- phase 3: clusters along each segment, goal = cell nearest the cluster centroid
+    t0 = time.perf_counter()
+    if p2_r.size == 0 and not far.any():
+        times["phase3"] = (time.perf_counter() - t0) * 1e3
+        result.status = STATUS_NO_FRONTIERS
+        return result
+    cluster_len = p.cluster_size_m / resolution
+    cluster = np.zeros(0, np.int64)
+    centroids, size = np.zeros((0, 2)), np.zeros(0, np.int64)
+    f_centroids, f_size = np.zeros((0, 2)), np.zeros(0, np.int64)
+    if p2_r.size:
+        cluster, centroids, size = group_clusters(p2_r, p2_c, seg, cluster_len)
+    if far.any():
+        _, f_centroids, f_size = group_clusters(p1_r[far], p1_c[far], segment[far],
+                                                cluster_len)
+    # Unknown within the footprint radius: on small patches around each cluster, or once
+    # for the whole window when the patches would cover more than a twentieth of it.
+    near_full = None
+    patch_area = (size.size * (2 * (p.goal_search_radius_m / resolution + radius_cells)) ** 2
+                  + f_size.size * (2 * (p.observe_range_m / resolution + radius_cells)) ** 2)
+    if patch_area > 0.05 * sub.size:
+        near_full = dilate_disk(unknown, max(0.0, radius_cells - 1e-6))
+    # Goal: nearest cell to the centroid that is reachable and keeps the whole footprint in
+    # known space (>= footprint radius from unknown cells too: the unknown just behind a
+    # frontier may be a wall), searched within goal_search_radius_m.
+    goals = place_goals(trav, unknown, centroids, p.goal_search_radius_m / resolution,
+                        radius_cells, near_full)
+    # Clusters without such a cell nearby (a narrow space behind the frontier) and the
+    # unreachable segments' clusters get a view point with a line of sight instead.
+    if p.observe_range_m > 0.0:
+        missing = np.nonzero(goals[:, 0] < 0)[0]
+        look = np.concatenate([centroids[missing], f_centroids])
+        looked = view_goals(
+            sub, trav, unknown, lambda r, c: np.isfinite(dist[graph.nodes(r, c)]),
+            look, p.observe_range_m / resolution, radius_cells, p.observe_rays, near_full)
+        goals[missing] = looked[: missing.size]
+        f_goals = looked[missing.size:]
+    else:
+        missing = np.zeros(0, np.int64)
+        f_goals = np.full((0, 2), -1, np.int64)
+    observe = np.zeros(size.size + f_size.size, bool)
+    observe[missing] = True
+    observe[size.size:] = True
+    centroids = np.concatenate([centroids, f_centroids])
+    size = np.concatenate([size, f_size])
+    goals = np.concatenate([goals, f_goals])
+    found = goals[:, 0] >= 0
+    found[found] = np.isfinite(dist[graph.nodes(goals[found, 0], goals[found, 1])])
+    kept = np.nonzero(found)[0]
+    relabel = np.full(size.size, -1, np.int64)
+    relabel[kept] = np.arange(kept.size)
+    result.goals_rc = (goals[kept] + np.array([r0, c0])).astype(np.int32)
+    result.centroids_rc = centroids[kept] + np.array([r0, c0], dtype=np.float64)
+    result.cluster_cells = size[kept]
+    result.observe_only = observe[kept]
+    result.phase2_cluster = relabel[cluster]
+    if kept.size == 0:
+        result.status = STATUS_NO_FRONTIERS
+    times["phase3"] = (time.perf_counter() - t0) * 1e3
+    return result

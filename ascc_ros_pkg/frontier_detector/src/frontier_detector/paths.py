@@ -1,0 +1,124 @@
+"""Path lengths through free space on a coarse grid (navigation cost and reachability).
+
+The fine traversable mask (FREE cells with the robot's clearance) is summarised on blocks of
+k x k cells:
+    edge (i, j)-(i, j+1) exists if a traversable cell on the block's east border touches
+                                  one on the neighbour's west border (4-adjacency), likewise
+                                  for south; a diagonal move needs one of its two L-shaped
+                                  detours to exist.
+k is kept below 2 r / (resolution * sqrt(2)) (r = clearance radius): two traversable cells of
+one block are then closer than 2 r, so they cannot lie on both sides of a wall, and a coarse
+path never cuts through an obstacle. Lengths come from a breadth-first search over the
+blocks (8-connected, level by level, vectorised over each level's front); among the
+fewest-step paths the shortest (straight 1, diagonal sqrt 2) is kept, which is the octile
+distance in open space. Result in metres; unreachable blocks are +inf. No ROS import.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Tuple
+
+import numpy as np
+
+# Direction order of the allow bits: E, W, S, N, SE, SW, NE, NW, where E/W = col +1/-1 and
+# S/N = row +1/-1 of the grid (names only: row +1 is +y in the map frame).
+_DR = np.array([0, 0, 1, -1, 1, 1, -1, -1])
+_DC = np.array([1, -1, 0, 0, 1, -1, 1, -1])
+_STEP = np.array([1.0, 1.0, 1.0, 1.0, math.sqrt(2), math.sqrt(2), math.sqrt(2), math.sqrt(2)],
+                 dtype=np.float32)
+# _MOVES[allow byte] -> the 8 booleans of its bits.
+_MOVES = ((np.arange(256)[:, None] >> np.arange(8)[None, :]) & 1).astype(bool)
+
+
+def block_size(resolution: float, clearance_m: float, path_resolution_m: float) -> int:
+    """Coarse block side k [cells]: about path_resolution_m, but small enough to be safe."""
+    wanted = max(1, int(round(path_resolution_m / resolution)))
+    safe = max(1, int(math.floor(2.0 * clearance_m / (resolution * math.sqrt(2.0)) - 1e-9)))
+    return max(1, min(wanted, safe))
+
+
+@dataclass
+class CoarseGraph:
+    """Blocks of k x k fine cells, padded by one empty block on every side (flattened)."""
+
+    k: int
+    shape: Tuple[int, int]     # padded coarse shape (rows, cols)
+    allow: np.ndarray          # uint8 per padded block: bit d set = move d allowed
+
+    def node(self, row: int, col: int) -> int:
+        """Flat node index of the block holding fine cell (row, col) of the mask."""
+        return (row // self.k + 1) * self.shape[1] + (col // self.k + 1)
+
+    def nodes(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Vectorised `node`."""
+        return (np.asarray(rows) // self.k + 1) * self.shape[1] + (np.asarray(cols) // self.k + 1)
+
+
+def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
+    """Coarse graph of a uint8 traversable mask (nonzero = traversable).
+
+    The mask's shape must be a multiple of k (the caller pads its window).
+    """
+    h, w = traversable.shape
+    if h % k or w % k:
+        raise ValueError(f"mask shape {traversable.shape} is not a multiple of k={k}")
+    hc, wc = h // k, w // k
+    t = traversable
+    # East edges: the last column of block j touches the first column of block j+1.
+    ep = np.zeros((hc + 2, wc + 2), bool)
+    if wc > 1:
+        cross = t[:, k - 1: w - 1: k] & t[:, k:: k]
+        ep[1:-1, 1:-2] = cross.reshape(hc, k, wc - 1).max(axis=1) > 0
+    sp = np.zeros((hc + 2, wc + 2), bool)
+    if hc > 1:
+        cross = t[k - 1: h - 1: k, :] & t[k:: k, :]
+        sp[1:-2, 1:-1] = cross.reshape(hc - 1, wc, k).max(axis=2) > 0
+    # Padding by one block on every side keeps neighbour indices from wrapping around.
+    west = _shift(ep, 0, -1)
+    north = _shift(sp, -1, 0)
+    # Diagonal move allowed if an L-shaped detour through a neighbour exists.
+    se = (ep & _shift(sp, 0, 1)) | (sp & _shift(ep, 1, 0))
+    sw = (west & _shift(sp, 0, -1)) | (sp & _shift(west, 1, 0))
+    ne = (ep & _shift(north, 0, 1)) | (north & _shift(ep, -1, 0))
+    nw = (west & _shift(north, 0, -1)) | (north & _shift(west, -1, 0))
+    allow = np.zeros((hc + 2, wc + 2), np.uint8)
+    for bit, m in enumerate((ep, west, sp, north, se, sw, ne, nw)):
+        allow |= m.astype(np.uint8) << np.uint8(bit)
+    return CoarseGraph(k, (hc + 2, wc + 2), allow.ravel())
+
+
+def _shift(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
+    """b[i, j] = a[i + dr, j + dc] (False outside)."""
+    b = np.zeros_like(a)
+    h, w = a.shape
+    b[max(0, -dr): h - max(0, dr), max(0, -dc): w - max(0, dc)] = \
+        a[max(0, dr): h - max(0, -dr), max(0, dc): w - max(0, -dc)]
+    return b
+
+
+def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.ndarray:
+    """Path length [m] from start_node's block to every block (flat, padded); inf if none.
+
+    The start block is taken as passable (the caller checked the robot's cell).
+    """
+    n = graph.allow.size
+    steps = np.full(n, np.inf, dtype=np.float32)
+    offsets = (_DR * graph.shape[1] + _DC).astype(np.int64)
+    stamp = np.zeros(n, dtype=np.int64)
+    order = np.arange(n, dtype=np.int64)
+    steps[start_node] = 0.0
+    front = np.array([start_node], dtype=np.int64)
+    while front.size:
+        ok = _MOVES[graph.allow[front]]                       # (F, 8) allowed moves
+        nb = (front[:, None] + offsets)[ok]
+        new = np.isinf(steps[nb])
+        nb = nb[new]
+        if nb.size == 0:
+            break
+        # Several parents on this level may reach a block: keep the shortest length.
+        np.minimum.at(steps, nb, (steps[front][:, None] + _STEP)[ok][new])
+        stamp[nb] = order[: nb.size]                          # de-duplicate without sorting
+        front = nb[stamp[nb] == order[: nb.size]]
+    return steps * np.float32(graph.k * resolution)

@@ -1,0 +1,277 @@
+"""Exploration reports: coverage against a ground truth, path length, PNG writers.
+
+Coverage (`coverage`): the reachable area of a ground-truth map is the set of its FREE
+cells the robot's footprint can occupy when its centre moves from the start through cells
+at least `clearance_m` from every occupied cell (8-connected), i.e. that set of centres
+dilated by clearance_m again (clearance_m = 0: all FREE cells connected to the start). A
+reachable cell is covered when the explored map marks it known (FREE or OCCUPIED; a
+thick-walled map still covers the room). Maps may differ in origin and resolution: truth
+cells are compared at their centres' world positions.
+
+Writers use matplotlib's Agg backend (no display needed): `write_map_png` (map, robot path,
+goals, candidates, robot), `write_coverage_plot` (coverage vs time, one curve per run).
+`ExplorationRecord` collects a whole run (maps, true poses, goals, bumps) and writes its
+summary JSON and both PNGs; `compose` puts a map's geometry into the truth's frame.
+No ROS import.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Dict, Iterable, Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+
+from .frontiers import disk_kernel, snap_to_mask, traversable_mask
+from .grid import FREE, OCCUPIED, UNKNOWN, MapInfo, save_map_yaml
+
+
+def reachable_area(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float],
+                   clearance_m: float = 0.18, snap_m: float = 0.5) -> np.ndarray:
+    """Boolean mask over `truth`: FREE cells the robot's footprint can reach from start."""
+    truth = np.ascontiguousarray(truth, dtype=np.int8)
+    radius = clearance_m / info.resolution
+    centres = traversable_mask(truth, radius)
+    r, c = info.world_to_cell(*start_xy)
+    snap = snap_to_mask(centres, r, c, int(math.ceil(snap_m / info.resolution)))
+    if snap is None:
+        return np.zeros(truth.shape, bool)
+    mask = np.zeros((truth.shape[0] + 2, truth.shape[1] + 2), np.uint8)
+    flags = 8 | cv2.FLOODFILL_MASK_ONLY | cv2.FLOODFILL_FIXED_RANGE | (255 << 8)
+    cv2.floodFill(centres, mask, (snap[1], snap[0]), 0, 0, 0, flags)
+    reached = mask[1:-1, 1:-1]
+    if radius > 0.0:
+        reached = cv2.dilate(reached, disk_kernel(radius))
+    return (reached > 0) & (truth == FREE)
+
+
+def coverage(explored: np.ndarray, explored_info: MapInfo, truth: np.ndarray,
+             truth_info: MapInfo, start_xy: Tuple[float, float], clearance_m: float = 0.18,
+             reachable: Optional[np.ndarray] = None) -> float:
+    """Fraction [0, 1] of the truth's reachable area that the explored map knows.
+
+    Pass a precomputed `reachable` (from reachable_area) when calling this repeatedly.
+    """
+    if reachable is None:
+        reachable = reachable_area(truth, truth_info, start_xy, clearance_m)
+    rows, cols = np.nonzero(reachable)
+    if rows.size == 0:
+        return 0.0
+    x, y = truth_info.cells_to_world(rows, cols)
+    er, ec = explored_info.world_to_cells(x, y)
+    h, w = explored.shape
+    inside = (er >= 0) & (er < h) & (ec >= 0) & (ec < w)
+    known = np.zeros(rows.size, bool)
+    vals = explored[er[inside], ec[inside]]
+    known[inside] = (vals == FREE) | (vals == OCCUPIED)
+    return float(np.count_nonzero(known)) / float(rows.size)
+
+
+def path_length(xy: Sequence[Sequence[float]]) -> float:
+    """Length [m] of a polyline of (x, y) points."""
+    a = np.asarray(xy, dtype=float).reshape(-1, 2)
+    if a.shape[0] < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(a, axis=0).T).sum())
+
+
+def time_to_coverage(times_s: Sequence[float], cover: Sequence[float],
+                     levels: Iterable[float] = (0.90, 0.95, 0.99)) -> Dict[float, Optional[float]]:
+    """First time [s] each coverage level is reached (None if never)."""
+    t = np.asarray(times_s, dtype=float)
+    c = np.asarray(cover, dtype=float)
+    out: Dict[float, Optional[float]] = {}
+    for level in levels:
+        hit = np.nonzero(c >= level - 1e-12)[0]
+        out[level] = float(t[hit[0]]) if hit.size else None
+    return out
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def map_image(grid: np.ndarray) -> np.ndarray:
+    """Grey image of a trinary grid (free white, unknown grey, occupied black), row 0 first."""
+    img = np.full(grid.shape, 0.8, dtype=np.float32)
+    img[grid == FREE] = 1.0
+    img[grid == OCCUPIED] = 0.0
+    img[(grid != FREE) & (grid != OCCUPIED) & (grid != UNKNOWN)] = 0.5
+    return img
+
+
+def write_map_png(path: str, grid: np.ndarray, info: MapInfo,
+                  path_xy: Optional[Sequence[Sequence[float]]] = None,
+                  goals_xy: Optional[Sequence[Sequence[float]]] = None,
+                  candidates_xy: Optional[Sequence[Sequence[float]]] = None,
+                  robot_xy: Optional[Tuple[float, float]] = None, title: str = "") -> None:
+    """Map with the robot's path (blue), goals sent (numbered red circles), candidates
+    (orange dots) and the robot (green triangle), in map metres (unrotated origin)."""
+    plt = _pyplot()
+    h, w = grid.shape
+    extent = (info.origin_x, info.origin_x + w * info.resolution,
+              info.origin_y, info.origin_y + h * info.resolution)
+    fig, ax = plt.subplots(figsize=(8, 8 * h / max(w, 1) + 0.5), dpi=100)
+    ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=extent,
+              interpolation="nearest")
+    if candidates_xy is not None and len(candidates_xy):
+        c = np.asarray(candidates_xy, dtype=float).reshape(-1, 2)
+        ax.plot(c[:, 0], c[:, 1], ".", color="orange", ms=4, label="candidates")
+    if path_xy is not None and len(path_xy):
+        p = np.asarray(path_xy, dtype=float).reshape(-1, 2)
+        ax.plot(p[:, 0], p[:, 1], "-", color="tab:blue", lw=1.2,
+                label=f"path {path_length(p):.1f} m")
+    if goals_xy is not None and len(goals_xy):
+        g = np.asarray(goals_xy, dtype=float).reshape(-1, 2)
+        ax.plot(g[:, 0], g[:, 1], "o", mfc="none", mec="red", ms=8, label="goals")
+        for i, (x, y) in enumerate(g):
+            ax.annotate(str(i + 1), (x, y), fontsize=7, color="red",
+                        xytext=(3, 3), textcoords="offset points")
+    if robot_xy is not None:
+        ax.plot([robot_xy[0]], [robot_xy[1]], "^", color="green", ms=10, label="robot")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal")
+    if title:
+        ax.set_title(title)
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def write_coverage_plot(path: str, runs: Dict[str, Tuple[Sequence[float], Sequence[float]]],
+                        levels: Sequence[float] = (0.90, 0.95, 0.99), title: str = "") -> None:
+    """Coverage [%] vs time [s], one curve per run label, dashed lines at `levels`."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=100)
+    for label, (t, c) in runs.items():
+        ax.plot(np.asarray(t, float), 100.0 * np.asarray(c, float), label=label)
+    for level in levels:
+        ax.axhline(100.0 * level, ls="--", lw=0.8, color="grey")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("coverage of reachable area [%]")
+    ax.set_ylim(0, 101)
+    if title:
+        ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def compose(pose: Tuple[float, float, float], info: MapInfo) -> MapInfo:
+    """`info` (a map's geometry in its own frame) expressed in a parent frame in which that
+    frame sits at pose = (x, y, yaw). E.g. gmapping's map frame inside the simulator's."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    return MapInfo(info.resolution, x + c * info.origin_x - s * info.origin_y,
+                   y + s * info.origin_x + c * info.origin_y, yaw + info.origin_yaw)
+
+
+class ExplorationRecord:
+    """What an exploration run did, measured against a ground truth (no ROS).
+
+    Feed it the explored map (`add_map`, with its MapInfo already in the truth's frame, see
+    `compose`), the true robot positions (`add_pose`), the goals sent (`add_goal`) and
+    bumper hits (`add_bump`); `summary()` gives coverage, path length, time to 90/95/99 %;
+    `write()` saves summary JSON, map+path+goals PNG and coverage-vs-time PNG.
+    Times are whatever clock the caller uses (simulated seconds in the simulator).
+    """
+
+    def __init__(self, truth: np.ndarray, truth_info: MapInfo, start_xy: Tuple[float, float],
+                 clearance_m: float = 0.18, label: str = "run"):
+        self.truth, self.truth_info, self.label = truth, truth_info, label
+        self.start_xy = start_xy
+        self.reach = reachable_area(truth, truth_info, start_xy, clearance_m)
+        self.times_s: list = []
+        self.coverage: list = []
+        self.poses: list = []
+        self.goals: list = []
+        self.bumps = 0
+        self.t0: Optional[float] = None
+        self.last_map: Optional[Tuple[np.ndarray, MapInfo]] = None
+
+    def _rel(self, t: float) -> float:
+        if self.t0 is None:
+            self.t0 = t
+        return t - self.t0
+
+    def add_map(self, t: float, grid: np.ndarray, info_in_truth: MapInfo) -> float:
+        c = coverage(grid, info_in_truth, self.truth, self.truth_info, self.start_xy,
+                     reachable=self.reach)
+        self.times_s.append(self._rel(t))
+        self.coverage.append(c)
+        self.last_map = (grid, info_in_truth)
+        return c
+
+    def add_pose(self, t: float, x: float, y: float) -> None:
+        self._rel(t)
+        if not self.poses or math.hypot(x - self.poses[-1][0], y - self.poses[-1][1]) > 0.01:
+            self.poses.append((float(x), float(y)))
+
+    def add_goal(self, x: float, y: float) -> None:
+        self.goals.append((float(x), float(y)))
+
+    def add_bump(self) -> None:
+        self.bumps += 1
+
+    def summary(self) -> Dict[str, object]:
+        levels = time_to_coverage(self.times_s, self.coverage)
+        return {
+            "label": self.label,
+            "final_coverage": self.coverage[-1] if self.coverage else 0.0,
+            "path_m": path_length(self.poses),
+            "time_s": self.times_s[-1] if self.times_s else 0.0,
+            "time_to_coverage_s": {f"{k:.2f}": v for k, v in levels.items()},
+            "goals": len(self.goals),
+            "bumps": self.bumps,
+            "reachable_m2": float(self.reach.sum()) * self.truth_info.resolution ** 2,
+        }
+
+    def file_stem(self) -> str:
+        """The label made safe as a file name ("office / utility" -> "office_utility")."""
+        import re
+
+        return re.sub(r"[^A-Za-z0-9_.-]+", "_", self.label).strip("_") or "run"
+
+    def write(self, out_dir: str, extra: Optional[Dict[str, object]] = None,
+              stem: Optional[str] = None) -> Dict[str, object]:
+        """Write <stem>.json, <stem>_map.png, <stem>_coverage.png and the last explored map
+        as <stem>_explored.yaml/.pgm (map_server format, truth frame); returns the summary.
+        The stem defaults to the file-safe label."""
+        import json
+        import os
+
+        os.makedirs(out_dir, exist_ok=True)
+        s = self.summary()
+        if extra:
+            s.update(extra)
+        base = os.path.join(out_dir, stem or self.file_stem())
+        with open(base + ".json", "w", encoding="utf-8") as f:
+            json.dump(dict(s, times_s=self.times_s, coverage=self.coverage), f, indent=1)
+        if self.last_map is not None:
+            # Draw the explored map resampled into the truth's grid.
+            grid, info = self.last_map
+            save_map_yaml(base + "_explored.yaml", grid, info)
+            rows, cols = np.indices(self.truth.shape)
+            x, y = self.truth_info.cells_to_world(rows.ravel(), cols.ravel())
+            er, ec = info.world_to_cells(x, y)
+            h, w = grid.shape
+            inside = (er >= 0) & (er < h) & (ec >= 0) & (ec < w)
+            img = np.full(self.truth.size, UNKNOWN, np.int8)
+            img[inside] = grid[er[inside], ec[inside]]
+            write_map_png(base + "_map.png", img.reshape(self.truth.shape), self.truth_info,
+                          self.poses, self.goals, robot_xy=self.poses[-1] if self.poses
+                          else None, title=f"{self.label}: {s['path_m']:.1f} m, "
+                          f"{100 * float(s['final_coverage']):.1f} %")
+        write_coverage_plot(base + "_coverage.png", {self.label: (self.times_s, self.coverage)},
+                            title=self.label)
+        return s

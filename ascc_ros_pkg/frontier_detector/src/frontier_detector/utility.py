@@ -1,0 +1,180 @@
+"""Utility of frontier candidates, thesis eq. (2.1)/(2.2):
+
+    U(x) = wS * wI * U_I(x) + wE * wN * U_N(x) + wL * U_L(x),     x* = argmax_x U(x)
+
+U_I  information gain: unknown area visible from x, by ray casting on the grid within the
+     laser range (rays pass free and unknown cells and stop at the first occupied cell),
+     as a fraction of the full disc pi * range^2; each ray sample stands for the area
+     r * dtheta * dr it covers. In [0, 1].
+U_N  navigation term: exp(-L / distance_scale_m), L = path length [m] on the grid from the
+     robot (see paths.py), so shorter paths are more appealing. In (0, 1].
+U_L  localizability: fraction of `loc_sectors` equal angular sectors around x in which a
+     ray meets an occupied cell through free cells only (known structure the laser can
+     match against; structure on several sides constrains the pose). In [0, 1].
+wS   scenario coefficient (room or corridor, see scenario.py); wI, wN, wL weights.
+wE   entropy coefficient: 1 + entropy_gain * max(0, H - entropy_ref), H = pose entropy
+     from slam_gmapping/entropy [nats]: an uncertain pose makes long trips less attractive.
+
+Candidates whose visible unknown area U_I * pi * range^2 is below `min_info_gain_m2` are not
+chosen by the utility strategy (a corner the laser missed is not worth a long trip).
+`nearest` strategy: the candidate with the shortest path (ties: larger cluster), like
+explore_lite's pure nearest-frontier rule. No ROS import.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Dict, Optional
+
+import numpy as np
+
+from .grid import OCCUPIED, UNKNOWN
+
+STRATEGIES = ("utility", "nearest")
+
+
+@dataclass
+class UtilityParams:
+    """Weights and sensor model of eq. (2.1)."""
+
+    w_info: float = 1.0              # wI
+    w_nav: float = 1.0               # wN
+    w_loc: float = 0.1               # wL
+    sensor_range_m: float = 4.0      # ray length [m] (Hokuyo URG-04LX: 4.0 m)
+    n_rays: int = 72                 # rays per candidate over 360 deg
+    loc_sectors: int = 8             # angular sectors for U_L
+    distance_scale_m: float = 4.0    # U_N = exp(-L / distance_scale_m) [m]
+    entropy_gain: float = 0.5        # wE slope [1/nat]
+    entropy_ref: float = 0.0         # entropy [nat] at which wE starts to grow
+    min_info_gain_m2: float = 1.0    # utility strategy: skip candidates seeing less [m^2]
+
+    def validate(self) -> None:
+        if self.sensor_range_m <= 0.0 or self.distance_scale_m <= 0.0:
+            raise ValueError("sensor_range_m and distance_scale_m must be > 0")
+        if self.n_rays < 4 or self.loc_sectors < 1 or self.loc_sectors > self.n_rays:
+            raise ValueError("need n_rays >= 4 and 1 <= loc_sectors <= n_rays")
+        if self.entropy_gain < 0.0:
+            raise ValueError("entropy_gain must be >= 0")
+
+
+@dataclass
+class Scores:
+    """Per-candidate terms and the total; `best` is the chosen index or -1."""
+
+    info: np.ndarray
+    nav: np.ndarray
+    loc: np.ndarray
+    path_m: np.ndarray
+    total: np.ndarray
+    w_scenario: float
+    w_entropy: float
+    best: int
+    timings_ms: Dict[str, float] = field(default_factory=dict)
+
+
+def entropy_weight(entropy: Optional[float], params: UtilityParams) -> float:
+    """wE from the pose entropy [nats]; 1.0 when unknown or not finite."""
+    if entropy is None or not math.isfinite(entropy):
+        return 1.0
+    return 1.0 + params.entropy_gain * max(0.0, float(entropy) - params.entropy_ref)
+
+
+def ray_offsets(resolution: float, params: UtilityParams):
+    """Integer cell offsets (dr, dc) of every ray sample, (n_rays, n_steps), and the area
+    [m^2] each sample stands for, per step."""
+    n_steps = max(1, int(math.ceil(params.sensor_range_m / resolution)))
+    theta = np.arange(params.n_rays) * (2.0 * math.pi / params.n_rays)
+    s = np.arange(1, n_steps + 1, dtype=np.float64)                      # [cells]
+    dr = np.rint(np.sin(theta)[:, None] * s[None, :]).astype(np.int64)
+    dc = np.rint(np.cos(theta)[:, None] * s[None, :]).astype(np.int64)
+    area = (s * resolution) * (2.0 * math.pi / params.n_rays) * resolution
+    return dr, dc, area
+
+
+def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.ndarray,
+              params: UtilityParams):
+    """Ray cast from candidate cells; returns (U_I, U_L), one value per candidate.
+
+    Samples off the map end their ray (nothing to see there) and are not landmarks.
+    """
+    rows = np.asarray(rows, dtype=np.int64).ravel()
+    cols = np.asarray(cols, dtype=np.int64).ravel()
+    n = rows.size
+    if n == 0:
+        return np.zeros(0), np.zeros(0)
+    h, w = grid.shape
+    dr, dc, area = ray_offsets(resolution, params)
+    n_steps = dr.shape[1]
+    # Flat indices into a grid padded by n_steps + 1 cells of an "off the map" value, so one
+    # gather serves candidates near the edge too. Only the candidates' bounding box is padded.
+    pad = n_steps + 1
+    b_r0, b_c0 = max(0, int(rows.min()) - pad), max(0, int(cols.min()) - pad)
+    b_r1, b_c1 = min(h, int(rows.max()) + pad + 1), min(w, int(cols.max()) + pad + 1)
+    off_map = np.int8(-2)
+    local = np.full((b_r1 - b_r0 + 2 * pad, b_c1 - b_c0 + 2 * pad), off_map, np.int8)
+    local[pad: pad + b_r1 - b_r0, pad: pad + b_c1 - b_c0] = grid[b_r0:b_r1, b_c0:b_c1]
+    lw = local.shape[1]
+    base = (rows - b_r0 + pad) * lw + (cols - b_c0 + pad)
+    vals = local.ravel()[base[:, None, None] + (dr * lw + dc)[None]]      # (C, R, S)
+    stop = (vals == OCCUPIED) | (vals == off_map)
+    unknown = vals == UNKNOWN
+    # Index of the first stopping sample on each ray (n_steps if none).
+    first_stop = np.where(stop.any(axis=2), stop.argmax(axis=2), n_steps)
+    first_unknown = np.where(unknown.any(axis=2), unknown.argmax(axis=2), n_steps)
+    step = np.arange(n_steps)
+    seen_unknown = unknown & (step[None, None, :] < first_stop[..., None])
+    info = (seen_unknown.reshape(n, -1, n_steps).astype(np.float32) @ area.astype(np.float32)
+            ).sum(axis=1) / (math.pi * params.sensor_range_m ** 2)
+    # Landmark: an occupied cell reached through free cells only (no unknown before it).
+    first_val = np.take_along_axis(vals, np.minimum(first_stop, n_steps - 1)[..., None],
+                                   axis=2)[..., 0]
+    hit = (first_stop < n_steps) & (first_val == OCCUPIED) & (first_stop < first_unknown)
+    starts = (np.arange(params.loc_sectors) * params.n_rays) // params.loc_sectors
+    per_sector = np.logical_or.reduceat(hit, starts, axis=1)             # (C, sectors)
+    loc = per_sector.mean(axis=1)
+    return np.minimum(info.astype(np.float64), 1.0), loc
+
+
+def score_candidates(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.ndarray,
+                     path_m: np.ndarray, cluster_cells: np.ndarray, params: UtilityParams,
+                     strategy: str = "utility", w_scenario: float = 1.0,
+                     entropy: Optional[float] = None,
+                     allowed: Optional[np.ndarray] = None) -> Scores:
+    """Evaluate eq. (2.1) for every candidate and pick x* (or the nearest one).
+
+    path_m: path length [m] per candidate (inf = unreachable, never chosen);
+    allowed: optional boolean mask (e.g. not blacklisted); disallowed ones are never chosen.
+    """
+    params.validate()
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy must be one of {STRATEGIES}, not {strategy!r}")
+    t0 = time.perf_counter()
+    path_m = np.asarray(path_m, dtype=np.float64)
+    n = path_m.size
+    w_e = entropy_weight(entropy, params)
+    ok = np.isfinite(path_m)
+    if allowed is not None:
+        ok &= np.asarray(allowed, dtype=bool)
+    if strategy == "nearest":
+        info = np.zeros(n)
+        loc = np.zeros(n)
+    else:
+        info, loc = cast_rays(grid, resolution, rows, cols, params)
+    t_rays = (time.perf_counter() - t0) * 1e3
+    nav = np.exp(-np.where(np.isfinite(path_m), path_m, np.inf) / params.distance_scale_m)
+    if strategy == "nearest":
+        total = -path_m.copy()
+        key = np.lexsort((-np.asarray(cluster_cells, dtype=np.float64), path_m))
+        candidates = [int(i) for i in key if ok[i]]
+        best = candidates[0] if candidates else -1
+    else:
+        total = (w_scenario * params.w_info * info + w_e * params.w_nav * nav
+                 + params.w_loc * loc)
+        # Visible unknown area [m^2] too small to be worth the trip (0 disables the rule).
+        ok &= info * (math.pi * params.sensor_range_m ** 2) >= params.min_info_gain_m2
+        masked = np.where(ok, total, -np.inf)
+        best = int(np.argmax(masked)) if ok.any() else -1
+    timings = {"rays": t_rays, "utility": (time.perf_counter() - t0) * 1e3}
+    return Scores(info, nav, loc, path_m, total, w_scenario, w_e, best, timings)

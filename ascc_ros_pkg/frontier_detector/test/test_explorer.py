@@ -1,0 +1,150 @@
+"""Unit tests of the exploration loop's rules (pure state machine, no ROS master)."""
+
+import math
+
+import numpy as np
+
+from frontier_detector import explorer as ex
+from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
+
+RES = 0.05
+INFO = MapInfo(RES)
+
+
+def corridor_map():
+    """10 m x 2 m known corridor, unknown continuation east; walls north/south."""
+    g = np.full((40, 300), UNKNOWN, np.int8)
+    g[:, :200] = FREE
+    g[0, :200] = OCCUPIED
+    g[-1, :200] = OCCUPIED
+    g[:, 0] = OCCUPIED
+    return g
+
+
+def closed_map():
+    g = np.full((40, 200), FREE, np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = OCCUPIED
+    return g
+
+
+ROBOT = (1.0, 1.0)
+
+
+def started(**kw):
+    c = ex.ExplorationController(ex.ExplorerParams(**kw))
+    c.start()
+    return c
+
+
+def test_idle_until_started_and_waits_for_inputs():
+    c = ex.ExplorationController()
+    assert c.step(0.0, corridor_map(), INFO, ROBOT, 1, True).status == ex.IDLE
+    c.start()
+    assert c.step(0.0, None, None, ROBOT, None, True).status == ex.WAITING_MAP
+    assert c.step(0.0, corridor_map(), INFO, None, 1, True).status == ex.WAITING_POSE
+    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, False)
+    assert d.status == ex.WAITING_MOVE_BASE and d.action == ex.NONE
+
+
+def test_sends_goal_on_the_frontier_and_keeps_it():
+    c = started()
+    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    assert d.action == ex.SEND and d.status == ex.EXPLORING
+    assert d.goal_xy[0] > 9.5                           # at the east end
+    assert c.goals_sent == 1
+    # Same map, no outcome: nothing new.
+    assert c.step(1.0, corridor_map(), INFO, ROBOT, 1, True).action == ex.NONE
+    # New map where the goal is still a frontier and the robot got closer: keep it.
+    d = c.step(2.0, corridor_map(), INFO, (4.0, 1.0), 2, True)
+    assert d.action == ex.NONE and c.active_goal == d.plan.goal_xy or c.active_goal
+
+
+def test_goal_that_is_no_longer_a_frontier_is_replaced():
+    c = started()
+    c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    g = corridor_map()
+    g[:, 200:260] = FREE                                # explored further east
+    g[0, :260] = OCCUPIED
+    g[-1, :260] = OCCUPIED
+    first = c.active_goal
+    d = c.step(1.0, g, INFO, (5.0, 1.0), 2, True)
+    assert d.action == ex.SEND and d.goal_xy[0] > first[0] + 2.0
+
+
+def test_aborted_goal_is_blacklisted_and_not_resent():
+    c = started()
+    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    c.report_outcome(ex.ABORTED)
+    d2 = c.step(1.0, corridor_map(), INFO, ROBOT, 1, True)
+    assert c.blacklist == [d.goal_xy]
+    if d2.action == ex.SEND:
+        assert math.hypot(d2.goal_xy[0] - d.goal_xy[0], d2.goal_xy[1] - d.goal_xy[1]) > 0.5
+
+
+def test_no_progress_blacklists_goal():
+    c = started(progress_timeout_s=10.0, done_confirmations=1)
+    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    # Robot does not move; the map does not change: after the timeout the goal is dropped.
+    assert c.step(5.0, corridor_map(), INFO, ROBOT, 1, True).action == ex.NONE
+    d2 = c.step(11.0, corridor_map(), INFO, ROBOT, 1, True)
+    assert d.goal_xy in c.blacklist
+    assert d2.action in (ex.SEND, ex.CANCEL)
+
+
+def test_done_after_confirmations_and_restart():
+    c = started(done_confirmations=2)
+    d = c.step(0.0, closed_map(), INFO, ROBOT, 1, True)
+    assert d.status == ex.EXPLORING and d.action == ex.NONE
+    d = c.step(1.0, closed_map(), INFO, ROBOT, 2, True)
+    assert d.status == ex.DONE and d.action == ex.CANCEL
+    assert c.step(2.0, corridor_map(), INFO, ROBOT, 3, True).status == ex.DONE
+    c.start()                                           # fresh exploration
+    assert c.step(3.0, corridor_map(), INFO, ROBOT, 4, True).action == ex.SEND
+
+
+def test_return_to_start_then_done():
+    c = started(done_confirmations=1, return_to_start=True)
+    c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)   # start pose remembered
+    c.report_outcome(ex.SUCCEEDED)
+    d = c.step(1.0, closed_map(), INFO, (8.0, 1.0), 2, True)
+    assert d.action == ex.SEND and d.status == ex.RETURNING and d.goal_xy == ROBOT
+    assert c.step(2.0, closed_map(), INFO, (5.0, 1.0), 3, True).status == ex.RETURNING
+    c.report_outcome(ex.SUCCEEDED)
+    assert c.step(3.0, closed_map(), INFO, ROBOT, 4, True).status == ex.DONE
+
+
+def test_stop_and_resume():
+    c = started()
+    c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    assert c.stop() is True                             # the node must cancel the goal
+    assert c.state == ex.IDLE
+    assert c.step(1.0, corridor_map(), INFO, ROBOT, 2, True).action == ex.NONE
+    c.start()
+    assert c.step(2.0, corridor_map(), INFO, ROBOT, 2, True).action == ex.SEND
+
+
+def test_bad_robot_pose_sends_nothing():
+    c = started()
+    d = c.step(0.0, corridor_map(), INFO, (-50.0, 3.0), 1, True)
+    assert d.action == ex.NONE and d.status == "robot_outside_map"
+    wall = corridor_map()
+    wall[:, :60] = OCCUPIED
+    d = c.step(1.0, wall, INFO, ROBOT, 2, True)
+    assert d.action == ex.NONE and d.status == "robot_not_in_free_space"
+    empty = np.full((10, 10), UNKNOWN, np.int8)
+    d = c.step(2.0, empty, INFO, (0.2, 0.2), 3, True)
+    assert d.action == ex.NONE and d.status == "empty_map"
+    # A 0 x 0 map with resolution 0 (an uninitialised OccupancyGrid), a NaN pose.
+    d = c.step(3.0, np.zeros((0, 0), np.int8), MapInfo(0.0), (0.0, 0.0), 4, True)
+    assert d.action == ex.NONE and d.status == "empty_map"
+    d = c.step(4.0, corridor_map(), INFO, (float("nan"), 1.0), 5, True)
+    assert d.action == ex.NONE and d.status == "robot_outside_map"
+
+
+def test_move_base_going_away_drops_the_goal():
+    c = started()
+    c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    assert c.active_goal is not None
+    assert c.step(1.0, corridor_map(), INFO, ROBOT, 1, False).status == ex.WAITING_MOVE_BASE
+    assert c.active_goal is None
+    assert c.step(2.0, corridor_map(), INFO, ROBOT, 1, True).action == ex.SEND

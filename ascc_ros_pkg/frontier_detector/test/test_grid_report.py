@@ -1,0 +1,173 @@
+"""Unit tests of the map thresholding rule, map_server files, coverage and the writers."""
+
+import math
+import os
+
+import cv2
+import numpy as np
+import pytest
+
+from frontier_detector.grid import (
+    FREE,
+    OCCUPIED,
+    UNKNOWN,
+    MapInfo,
+    load_map_yaml,
+    save_map_yaml,
+    to_trinary,
+)
+from frontier_detector.report import (
+    coverage,
+    path_length,
+    reachable_area,
+    time_to_coverage,
+    write_coverage_plot,
+    write_map_png,
+)
+
+
+def test_thresholding_rule():
+    raw = np.array([-1, 0, 19, 20, 50, 64, 65, 99, 100, 101, 127, -2, -128], np.int8)
+    out, counts = to_trinary(raw)
+    assert out.tolist() == [UNKNOWN, FREE, FREE, UNKNOWN, UNKNOWN, UNKNOWN, OCCUPIED,
+                            OCCUPIED, OCCUPIED, UNKNOWN, UNKNOWN, UNKNOWN, UNKNOWN]
+    assert counts == {"non_trinary": 10, "invalid": 4}
+    out2, counts2 = to_trinary(raw, free_max=30, occupied_min=50)
+    assert out2[3] == FREE and out2[4] == OCCUPIED
+    clean, c = to_trinary(np.array([[-1, 0], [100, 0]], np.int8))
+    assert c == {"non_trinary": 0, "invalid": 0} and clean.shape == (2, 2)
+    with pytest.raises(ValueError):
+        to_trinary(raw, free_max=70, occupied_min=60)
+
+
+def test_map_info_round_trip_with_rotation():
+    info = MapInfo(0.1, origin_x=2.0, origin_y=-1.0, origin_yaw=math.pi / 2)
+    x, y = info.cells_to_world(np.array([3]), np.array([5]))
+    # col 5 -> grid x 0.55, row 3 -> grid y 0.35, rotated by 90 deg.
+    assert x[0] == pytest.approx(2.0 - 0.35) and y[0] == pytest.approx(-1.0 + 0.55)
+    assert info.world_to_cell(x[0], y[0]) == (3, 5)
+    rr, cc = info.world_to_cells(x, y)
+    assert (rr[0], cc[0]) == (3, 5)
+
+
+def test_map_server_files_round_trip(tmp_path):
+    g = np.full((12, 20), UNKNOWN, np.int8)
+    g[2:10, 2:15] = FREE
+    g[2, 2:15] = OCCUPIED
+    info = MapInfo(0.05, -1.0, 3.0, 0.0)
+    path = str(tmp_path / "m.yaml")
+    save_map_yaml(path, g, info)
+    g2, info2 = load_map_yaml(path)
+    assert np.array_equal(g, g2) and info2 == info
+    # Image row 0 is the top of the map (max y), grid row 0 the origin.
+    img = cv2.imread(str(tmp_path / "m.pgm"), cv2.IMREAD_GRAYSCALE)
+    assert img[-1 - 2, 5] == 0 and img[0, 0] == 205
+
+
+def test_map_server_negate_and_scale(tmp_path):
+    img = np.array([[0, 128, 255]], np.uint8)
+    cv2.imwrite(str(tmp_path / "n.pgm"), img)
+    (tmp_path / "n.yaml").write_text(
+        "image: n.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 1\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    g, _ = load_map_yaml(str(tmp_path / "n.yaml"))
+    assert g.tolist() == [[FREE, UNKNOWN, OCCUPIED]]
+    (tmp_path / "s.yaml").write_text(
+        "image: n.pgm\nresolution: 0.1\nmode: scale\nnegate: 0\n")
+    g, _ = load_map_yaml(str(tmp_path / "s.yaml"))
+    assert g.tolist() == [[OCCUPIED, UNKNOWN, FREE]]
+
+
+def test_bad_map_files(tmp_path):
+    with pytest.raises(OSError):
+        load_map_yaml(str(tmp_path / "missing.yaml"))
+    (tmp_path / "x.yaml").write_text("image: nothere.pgm\nresolution: 0.05\n")
+    with pytest.raises(ValueError):
+        load_map_yaml(str(tmp_path / "x.yaml"))
+    (tmp_path / "y.yaml").write_text("just text\n")
+    with pytest.raises(ValueError):
+        load_map_yaml(str(tmp_path / "y.yaml"))
+
+
+def two_rooms():
+    t = np.full((40, 80), OCCUPIED, np.int8)
+    t[1:-1, 1:39] = FREE                               # west room
+    t[1:-1, 41:-1] = FREE                              # east room
+    t[15:25, 39:41] = FREE                             # door 0.5 m
+    return t, MapInfo(0.05)
+
+
+def test_reachable_area_and_coverage():
+    t, info = two_rooms()
+    start = (0.5, 1.0)
+    reach = reachable_area(t, info, start, clearance_m=0.0)
+    assert reach.sum() == np.count_nonzero(t == FREE)
+    # A door narrower than the footprint cuts the east room off.
+    t_narrow = t.copy()
+    t_narrow[15:25, 39:41] = OCCUPIED
+    t_narrow[19:22, 39:41] = FREE                      # 0.15 m
+    reach_n = reachable_area(t_narrow, info, start, clearance_m=0.18)
+    assert not reach_n[:, 42:].any() and reach_n[:, :39].any()
+    # Explored map: west room known, east room unknown -> coverage = west share.
+    explored = np.full_like(t, UNKNOWN)
+    explored[:, :40] = t[:, :40]
+    reach = reachable_area(t, info, start, clearance_m=0.18)
+    west = np.count_nonzero(reach[:, :40])
+    assert coverage(explored, info, t, info, start, 0.18) == pytest.approx(west / reach.sum())
+    assert coverage(t, info, t, info, start) == pytest.approx(1.0)
+    # Explored map at another origin/resolution still lines up with the truth.
+    coarse = cv2.resize(t, (40, 20), interpolation=cv2.INTER_NEAREST)
+    c = coverage(coarse, MapInfo(0.1), t, info, start, 0.18)
+    assert c > 0.95
+    assert coverage(explored, info, t, info, (50.0, 50.0)) == 0.0   # start off the map
+
+
+def test_path_length_and_time_to_coverage():
+    assert path_length([(0, 0), (3, 4), (3, 5)]) == pytest.approx(6.0)
+    assert path_length([(1, 1)]) == 0.0
+    t = [0, 10, 20, 30]
+    c = [0.2, 0.91, 0.96, 0.97]
+    assert time_to_coverage(t, c) == {0.90: 10.0, 0.95: 20.0, 0.99: None}
+
+
+def test_writers_make_png_files(tmp_path):
+    t, info = two_rooms()
+    p1 = str(tmp_path / "map.png")
+    write_map_png(p1, t, info, path_xy=[(0.5, 1.0), (1.0, 1.0), (3.0, 1.0)],
+                  goals_xy=[(1.0, 1.0), (3.0, 1.0)], candidates_xy=[(2.0, 1.5)],
+                  robot_xy=(3.0, 1.0), title="test")
+    p2 = str(tmp_path / "cov.png")
+    write_coverage_plot(p2, {"utility": ([0, 5, 10], [0.1, 0.5, 0.96]),
+                             "nearest": ([0, 5, 12], [0.1, 0.4, 0.95])})
+    for p in (p1, p2):
+        img = cv2.imread(p)
+        assert img is not None and img.shape[0] > 100 and os.path.getsize(p) > 1000
+        assert img.std() > 10                          # not a blank canvas
+
+
+def test_compose_and_exploration_record(tmp_path):
+    from frontier_detector.report import ExplorationRecord, compose
+
+    t, info = two_rooms()
+    # A map frame sitting at (1, 0.5) rotated by 90 deg inside the truth frame.
+    moved = compose((1.0, 0.5, math.pi / 2), MapInfo(0.05, 0.2, 0.0, 0.0))
+    assert (moved.origin_x, moved.origin_y) == pytest.approx((1.0, 0.7))
+    assert moved.origin_yaw == pytest.approx(math.pi / 2)
+    rec = ExplorationRecord(t, info, (0.5, 1.0), 0.18, label="unit")
+    half = np.full_like(t, UNKNOWN)
+    half[:, :40] = t[:, :40]
+    c1 = rec.add_map(10.0, half, info)
+    c2 = rec.add_map(25.0, t, info)
+    assert 0.3 < c1 < 0.7 and c2 == pytest.approx(1.0)
+    for i, x in enumerate(np.linspace(0.5, 3.0, 6)):
+        rec.add_pose(10.0 + i, x, 1.0)
+    rec.add_goal(3.0, 1.0)
+    rec.add_bump()
+    s = rec.write(str(tmp_path))
+    assert s["final_coverage"] == pytest.approx(1.0)
+    assert s["path_m"] == pytest.approx(2.5)
+    assert s["time_to_coverage_s"] == {"0.90": 15.0, "0.95": 15.0, "0.99": 15.0}
+    assert s["goals"] == 1 and s["bumps"] == 1
+    for name in ("unit.json", "unit_map.png", "unit_coverage.png", "unit_explored.yaml",
+                 "unit_explored.pgm"):
+        assert (tmp_path / name).stat().st_size > 100
