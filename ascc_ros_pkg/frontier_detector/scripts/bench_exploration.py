@@ -1,0 +1,115 @@
+#!/usr/bin/env python3
+"""Exploration benchmark in the simulator (Explore-Bench's metrics), for the README.
+
+Runs `launch/explore_demo.launch` (simulator + driver + mapper + navigator + explorer +
+monitor, each run its own roslaunch on its own master port) for every world x strategy x
+seed, one after another, and prints per run and per (world, strategy) the final coverage of
+the reachable area, the path length, the time to 90/95/99 % coverage (simulated s) and the
+collisions (bumper hits). Writes every run's report to OUT/<world>_<strategy>_seed<n>/ and
+a table to OUT/results.json. Long: an office run takes 2-4 minutes of wall time.
+
+    python ascc_ros_pkg/frontier_detector/scripts/bench_exploration.py \
+        [--worlds office lab corridor] [--strategies utility nearest] [--seeds 0 1 2 3 4]
+        [--rtf 4] [--out output/bench_exploration]
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
+                                    "..", "..", ".."))
+LEVELS = ("0.90", "0.95", "0.99")
+
+
+def run_one(world, strategy, seed, rtf, out, port, timeout_s):
+    run_dir = os.path.join(out, "%s_%s_seed%d" % (world, strategy, seed))
+    os.makedirs(run_dir, exist_ok=True)
+    env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
+    cmd = ["roslaunch", "-p", str(port), os.path.join(ROOT, "launch", "explore_demo.launch"),
+           "world:=%s" % world, "strategy:=%s" % strategy, "seed:=%d" % seed,
+           "real_time_factor:=%s" % rtf, "output_dir:=%s" % run_dir]
+    start = time.time()
+    with open(os.path.join(run_dir, "launch.log"), "w") as log:
+        try:
+            subprocess.run(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
+                           timeout=timeout_s, check=False)
+        except subprocess.TimeoutExpired:
+            print("  %s/%s/seed %d: timed out after %d s" % (world, strategy, seed, timeout_s))
+    wall = time.time() - start
+    path = os.path.join(run_dir, "summary.json")
+    if not os.path.exists(path):
+        return {"world": world, "strategy": strategy, "seed": seed, "error": "no summary",
+                "wall_s": wall}
+    with open(path) as f:
+        s = json.load(f)
+    return {"world": world, "strategy": strategy, "seed": seed, "wall_s": round(wall, 1),
+            "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
+            "time_s": s.get("time_s"), "bumps": s.get("bumps"),
+            "end": s.get("end_reason"),
+            "time_to": {lv: s.get("time_to_coverage_s", {}).get(lv) for lv in LEVELS}}
+
+
+def fmt(v, spec="%.1f"):
+    return "-" if v is None else spec % v
+
+
+def mean(values):
+    values = [v for v in values if v is not None]
+    return sum(values) / len(values) if values else None
+
+
+def summarise(results):
+    print("\n%-9s %-8s %5s %7s %8s %8s %8s %8s %5s" % (
+        "world", "strategy", "runs", "cov_min", "path_m", "t90_s", "t95_s", "t99_s", "hits"))
+    groups = {}
+    for r in results:
+        groups.setdefault((r["world"], r["strategy"]), []).append(r)
+    for (world, strategy), rs in sorted(groups.items()):
+        ok = [r for r in rs if "error" not in r]
+        cov = [r["coverage"] for r in ok]
+        print("%-9s %-8s %5d %7s %8s %8s %8s %8s %5s" % (
+            world, strategy, len(rs), fmt(100 * min(cov) if cov else None, "%.1f%%"),
+            fmt(mean([r["path_m"] for r in ok])),
+            fmt(mean([r["time_to"]["0.90"] for r in ok])),
+            fmt(mean([r["time_to"]["0.95"] for r in ok])),
+            fmt(mean([r["time_to"]["0.99"] for r in ok])),
+            sum(r["bumps"] or 0 for r in ok)))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--worlds", nargs="+", default=["office", "lab", "corridor"])
+    ap.add_argument("--strategies", nargs="+", default=["utility", "nearest"])
+    ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
+    ap.add_argument("--rtf", default="4", help="real_time_factor cap (0 = unlimited)")
+    ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_exploration"))
+    ap.add_argument("--timeout-s", type=int, default=3600, help="wall-clock limit per run")
+    ap.add_argument("--port", type=int, default=11411, help="ROS master port of the runs")
+    args = ap.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    results = []
+    n = len(args.worlds) * len(args.strategies) * len(args.seeds)
+    for world in args.worlds:
+        for seed in args.seeds:
+            for strategy in args.strategies:
+                print("[%d/%d] %s %s seed %d ..." % (len(results) + 1, n, world, strategy,
+                                                    seed), flush=True)
+                r = run_one(world, strategy, seed, args.rtf, args.out, args.port,
+                            args.timeout_s)
+                results.append(r)
+                print("  coverage %s  path %s m  t90/95/99 %s/%s/%s s  hits %s  (%s s wall)"
+                      % (fmt(100 * r["coverage"] if r.get("coverage") is not None else None,
+                             "%.1f%%"), fmt(r.get("path_m")),
+                         *(fmt(r.get("time_to", {}).get(lv)) for lv in LEVELS),
+                         r.get("bumps", "-"), fmt(r.get("wall_s"), "%.0f")), flush=True)
+                with open(os.path.join(args.out, "results.json"), "w") as f:
+                    json.dump(results, f, indent=1)
+    summarise(results)
+    return 0 if all("error" not in r for r in results) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
