@@ -21,6 +21,20 @@ import numpy as np
 from .grid import GridMap
 
 
+def float_fields(fields: Tuple[str, ...], d: Dict[str, Any], what: str) -> Dict[str, float]:
+    """Keyword arguments for a NamedTuple of floats from a parameter dict: ``<name>_deg``
+    keys fill ``<name>_rad`` fields; an unknown key is a ValueError naming it."""
+    kw: Dict[str, float] = {}
+    for key, value in d.items():
+        if key.endswith("_deg") and key[:-4] + "_rad" in fields:
+            kw[key[:-4] + "_rad"] = math.radians(float(value))
+        elif key in fields:
+            kw[key] = float(value)
+        else:
+            raise ValueError("unknown %s parameter %r" % (what, key))
+    return kw
+
+
 class LaserConfig(NamedTuple):
     angle_min_rad: float = -120.0 * math.pi / 180.0
     angle_max_rad: float = 120.0 * math.pi / 180.0
@@ -50,15 +64,7 @@ class LaserConfig(NamedTuple):
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> LaserConfig:
         """Build from a parameter dict; ``*_deg`` keys are accepted for angles."""
-        kw: Dict[str, Any] = {}
-        for key, value in d.items():
-            if key.endswith("_deg") and key[:-4] + "_rad" in cls._fields:
-                kw[key[:-4] + "_rad"] = math.radians(float(value))
-            elif key in cls._fields:
-                kw[key] = float(value)
-            else:
-                raise ValueError("unknown laser parameter %r" % key)
-        cfg = cls(**kw)
+        cfg = cls(**float_fields(cls._fields, d, "laser"))
         if cfg.angle_increment_rad <= 0 or cfg.angle_max_rad <= cfg.angle_min_rad:
             raise ValueError("laser angles: need angle_max > angle_min, increment > 0")
         if not 0.0 <= cfg.range_min_m < cfg.range_max_m:

@@ -15,7 +15,7 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .laser import LaserConfig, LaserModel
+from .laser import LaserConfig, LaserModel, float_fields
 from .people import PersonState, ScriptedPerson
 from .world import RobotSpec, World
 
@@ -36,15 +36,7 @@ class RobotModel(NamedTuple):
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> RobotModel:
-        kw: Dict[str, Any] = {}
-        for key, value in d.items():
-            if key.endswith("_deg") and key[:-4] + "_rad" in cls._fields:
-                kw[key[:-4] + "_rad"] = math.radians(float(value))
-            elif key in cls._fields:
-                kw[key] = float(value)
-            else:
-                raise ValueError("unknown robot model parameter %r" % key)
-        m = cls(**kw)
+        m = cls(**float_fields(cls._fields, d, "robot model"))
         if m.radius_m <= 0 or m.wheel_base_m <= 0 or m.max_wheel_accel_mps2 <= 0:
             raise ValueError("radius_m, wheel_base_m and max_wheel_accel_mps2 must be > 0")
         if m.encoder_scale_sigma < 0 or m.encoder_noise_m_per_sqrt_m < 0:
