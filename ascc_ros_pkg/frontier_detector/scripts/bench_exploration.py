@@ -6,11 +6,15 @@ monitor, each run its own roslaunch on its own master port) for every world x st
 seed, one after another, and prints per run and per (world, strategy) the final coverage of
 the reachable area, the path length, the time to 90/95/99 % coverage (simulated s) and the
 collisions (bumper hits). Writes every run's report to OUT/<world>_<strategy>_seed<n>/ and
-a table to OUT/results.json. Long: an office run takes 2-4 minutes of wall time.
+a table to OUT/results.json. Runs already in OUT/results.json from an earlier call are kept
+(a run with the same world, strategy and seed is replaced), so the benchmark can be run in
+batches; `--report-only` only prints the table again and redraws the plots
+(OUT/coverage_<world>.png: coverage vs time of every run, one colour per strategy).
+Long: an office run takes 2-4 minutes of wall time, a corridor run 5-10.
 
     python ascc_ros_pkg/frontier_detector/scripts/bench_exploration.py \
         [--worlds office lab corridor] [--strategies utility nearest] [--seeds 0 1 2 3 4]
-        [--rtf 4] [--out output/bench_exploration]
+        [--rtf 4] [--max-time-s 4000] [--out output/bench_exploration] [--report-only]
 """
 import argparse
 import json
@@ -24,13 +28,14 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
 LEVELS = ("0.90", "0.95", "0.99")
 
 
-def run_one(world, strategy, seed, rtf, out, port, timeout_s):
+def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
     run_dir = os.path.join(out, "%s_%s_seed%d" % (world, strategy, seed))
     os.makedirs(run_dir, exist_ok=True)
     env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
     cmd = ["roslaunch", "-p", str(port), os.path.join(ROOT, "launch", "explore_demo.launch"),
            "world:=%s" % world, "strategy:=%s" % strategy, "seed:=%d" % seed,
-           "real_time_factor:=%s" % rtf, "output_dir:=%s" % run_dir]
+           "real_time_factor:=%s" % rtf, "output_dir:=%s" % run_dir,
+           "max_time_s:=%s" % max_time_s]
     start = time.time()
     with open(os.path.join(run_dir, "launch.log"), "w") as log:
         try:
@@ -61,22 +66,66 @@ def mean(values):
     return sum(values) / len(values) if values else None
 
 
-def summarise(results):
-    print("\n%-9s %-8s %5s %7s %8s %8s %8s %8s %5s" % (
-        "world", "strategy", "runs", "cov_min", "path_m", "t90_s", "t95_s", "t99_s", "hits"))
+def group(results):
     groups = {}
     for r in results:
         groups.setdefault((r["world"], r["strategy"]), []).append(r)
-    for (world, strategy), rs in sorted(groups.items()):
+    return sorted(groups.items())
+
+
+def summarise(results):
+    """Plain table and a markdown table (for the README) of every (world, strategy)."""
+    print("\n%-9s %-8s %5s %7s %7s %8s %8s %8s %8s %5s" % (
+        "world", "strategy", "runs", "cov_min", "cov>=95", "path_m", "t90_s", "t95_s",
+        "t99_s", "hits"))
+    md = ["| world | strategy | runs | coverage min / mean | runs >= 95 % | path (mean ± sd) "
+          "| time to 90 / 95 / 99 % (mean) | runs reaching 99 % | collisions |",
+          "|---|---|---|---|---|---|---|---|---|"]
+    for (world, strategy), rs in group(results):
         ok = [r for r in rs if "error" not in r]
         cov = [r["coverage"] for r in ok]
-        print("%-9s %-8s %5d %7s %8s %8s %8s %8s %5s" % (
+        paths = [r["path_m"] for r in ok]
+        n95 = sum(c >= 0.95 for c in cov)
+        n99 = sum(r["time_to"]["0.99"] is not None for r in ok)
+        t = [mean([r["time_to"][lv] for r in ok]) for lv in LEVELS]
+        hits = sum(r["bumps"] or 0 for r in ok)
+        print("%-9s %-8s %5d %7s %7s %8s %8s %8s %8s %5s" % (
             world, strategy, len(rs), fmt(100 * min(cov) if cov else None, "%.1f%%"),
-            fmt(mean([r["path_m"] for r in ok])),
-            fmt(mean([r["time_to"]["0.90"] for r in ok])),
-            fmt(mean([r["time_to"]["0.95"] for r in ok])),
-            fmt(mean([r["time_to"]["0.99"] for r in ok])),
-            sum(r["bumps"] or 0 for r in ok)))
+            "%d/%d" % (n95, len(rs)), fmt(mean(paths)), *(fmt(v) for v in t), hits))
+        sd = (sum((p - mean(paths)) ** 2 for p in paths) / (len(paths) - 1)) ** 0.5 \
+            if len(paths) > 1 else 0.0
+        md.append("| %s | %s | %d | %s / %s | %d/%d | %s ± %.1f m | %s / %s / %s s | %d/%d | %d |"
+                  % (world, strategy, len(rs),
+                     fmt(100 * min(cov) if cov else None, "%.1f %%"),
+                     fmt(100 * mean(cov) if cov else None, "%.1f %%"), n95, len(rs),
+                     fmt(mean(paths)), sd, *(fmt(v, "%.0f") for v in t), n99, len(ok), hits))
+    print("\n" + "\n".join(md))
+
+
+def plot(results, out):
+    """OUT/coverage_<world>.png: coverage vs simulated time, every run, colour = strategy."""
+    from frontier_detector.report import write_coverage_plot
+
+    colours = {"utility": "tab:blue", "nearest": "tab:orange"}
+    for world in sorted({r["world"] for r in results}):
+        runs, styles = {}, {}
+        for r in sorted(results, key=lambda r: (r["strategy"], r["seed"])):
+            path = os.path.join(out, "%s_%s_seed%d" % (world, r["strategy"], r["seed"]),
+                                "summary.json")
+            if r["world"] != world or not os.path.exists(path):
+                continue
+            with open(path) as f:
+                s = json.load(f)
+            label = "%s seed %d" % (r["strategy"], r["seed"])
+            runs[label] = (s.get("times_s", []), s.get("coverage", []))
+            first = not any(k.startswith(r["strategy"]) for k in styles)
+            styles[label] = {"color": colours.get(r["strategy"]), "lw": 1.2, "alpha": 0.8,
+                             "label": r["strategy"] if first else None}
+        if runs:
+            write_coverage_plot(os.path.join(out, "coverage_%s.png" % world), runs,
+                                title="%s: coverage vs simulated time, %d runs"
+                                % (world, len(runs)), styles=styles)
+            print("wrote", os.path.join(out, "coverage_%s.png" % world))
 
 
 def main(argv=None):
@@ -87,27 +136,42 @@ def main(argv=None):
     ap.add_argument("--rtf", default="4", help="real_time_factor cap (0 = unlimited)")
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_exploration"))
     ap.add_argument("--timeout-s", type=int, default=3600, help="wall-clock limit per run")
+    ap.add_argument("--max-time-s", type=float, default=4000.0,
+                    help="simulated time after which a run gives up (the monitor ends it)")
     ap.add_argument("--port", type=int, default=11411, help="ROS master port of the runs")
+    ap.add_argument("--report-only", action="store_true",
+                    help="no runs: print the table of OUT/results.json and redraw the plots")
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
+    table = os.path.join(args.out, "results.json")
     results = []
+    if os.path.exists(table):
+        with open(table) as f:
+            results = json.load(f)
+    if args.report_only:
+        summarise(results)
+        plot(results, args.out)
+        return 0
     n = len(args.worlds) * len(args.strategies) * len(args.seeds)
+    i = 0
     for world in args.worlds:
         for seed in args.seeds:
             for strategy in args.strategies:
-                print("[%d/%d] %s %s seed %d ..." % (len(results) + 1, n, world, strategy,
-                                                    seed), flush=True)
+                i += 1
+                print("[%d/%d] %s %s seed %d ..." % (i, n, world, strategy, seed), flush=True)
                 r = run_one(world, strategy, seed, args.rtf, args.out, args.port,
-                            args.timeout_s)
-                results.append(r)
+                            args.timeout_s, args.max_time_s)
+                results = [o for o in results if (o["world"], o["strategy"], o["seed"])
+                           != (world, strategy, seed)] + [r]
                 print("  coverage %s  path %s m  t90/95/99 %s/%s/%s s  hits %s  (%s s wall)"
                       % (fmt(100 * r["coverage"] if r.get("coverage") is not None else None,
                              "%.1f%%"), fmt(r.get("path_m")),
                          *(fmt(r.get("time_to", {}).get(lv)) for lv in LEVELS),
                          r.get("bumps", "-"), fmt(r.get("wall_s"), "%.0f")), flush=True)
-                with open(os.path.join(args.out, "results.json"), "w") as f:
+                with open(table, "w") as f:
                     json.dump(results, f, indent=1)
     summarise(results)
+    plot(results, args.out)
     return 0 if all("error" not in r for r in results) else 1
 
 

@@ -147,12 +147,21 @@ def write_map_png(path: str, grid: np.ndarray, info: MapInfo,
 
 
 def write_coverage_plot(path: str, runs: Dict[str, Tuple[Sequence[float], Sequence[float]]],
-                        levels: Sequence[float] = (0.90, 0.95, 0.99), title: str = "") -> None:
-    """Coverage [%] vs time [s], one curve per run label, dashed lines at `levels`."""
+                        levels: Sequence[float] = (0.90, 0.95, 0.99), title: str = "",
+                        styles: Optional[Dict[str, dict]] = None) -> None:
+    """Coverage [%] vs time [s], one curve per run label, dashed lines at `levels`.
+
+    `styles` maps a label to matplotlib line keywords (colour, width, ...); a label styled
+    with `"label": None` is drawn but left out of the legend (several seeds, one entry).
+    """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5), dpi=100)
     for label, (t, c) in runs.items():
-        ax.plot(np.asarray(t, float), 100.0 * np.asarray(c, float), label=label)
+        kw = dict((styles or {}).get(label, {}))
+        kw.setdefault("label", label)
+        if kw["label"] is None:
+            kw["label"] = "_nolegend_"
+        ax.plot(np.asarray(t, float), 100.0 * np.asarray(c, float), **kw)
     for level in levels:
         ax.axhline(100.0 * level, ls="--", lw=0.8, color="grey")
     ax.set_xlabel("time [s]")
