@@ -168,3 +168,126 @@ def test_blocked_twice_without_rotation_aborts(office):
     last, _, steps = _run(navigator, (2.0, 2.0, 0.0), obstacles=lambda p: stuck)
     assert last.status == nav.ABORTED and "recovery behaviours failed" in last.reason
     assert not any("rotation" in s.reason for s in steps)
+
+
+# -- planning off the control loop (executor) -------------------------------------------
+class _Deferred:
+    """An executor whose jobs run only when the test says so (a slow planner thread)."""
+
+    class Future:
+        def __init__(self, fn, args):
+            self.fn, self.args, self.value, self.ran = fn, args, None, False
+
+        def done(self):
+            return self.ran
+
+        def result(self):
+            return self.value
+
+    def __init__(self):
+        self.jobs = []
+
+    def submit(self, fn, *args):
+        job = self.Future(fn, args)
+        self.jobs.append(job)
+        return job
+
+    def run_all(self):
+        for job in self.jobs:
+            if not job.ran:
+                job.value, job.ran = job.fn(*job.args), True
+
+
+def test_async_planning_with_a_thread_reaches_the_goal(office):
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=1) as executor:
+        navigator = nav.Navigator(executor=executor)
+        navigator.set_map(*office)
+        navigator.set_goal(8.0, 8.4, np.pi / 2, 0.0)
+        pose = np.array((2.0, 2.0, 0.0))
+        last = None
+        for k in range(2000):
+            last = navigator.step(k * DT, pose, None, DT)
+            if last.status != nav.ACTIVE:
+                break
+            pose += [last.v * DT * np.cos(pose[2]), last.v * DT * np.sin(pose[2]),
+                     last.w * DT]
+            if navigator.job is not None:
+                navigator.job.future.result()  # deterministic: wait as a fast planner would
+    assert last.status == nav.SUCCEEDED, last.reason
+    assert np.hypot(pose[0] - 8.0, pose[1] - 8.4) <= ctl.ControllerParams().xy_goal_tolerance
+
+
+def test_async_planning_stands_still_until_the_first_plan(office):
+    executor = _Deferred()
+    navigator = nav.Navigator(executor=executor)
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    for k in range(3):  # the plan is being made: nothing to follow, no second job
+        step = navigator.step(k * DT, (2.0, 2.0, 0.0), None, DT)
+        assert step.status == nav.ACTIVE and step.v == 0.0 and step.new_path is None
+    assert len(executor.jobs) == 1
+    executor.run_all()
+    step = navigator.step(0.3, (2.0, 2.0, 0.0), None, DT)
+    assert step.new_path is not None and np.allclose(step.new_path[-1], (12.0, 2.0), atol=0.1)
+    step = navigator.step(0.4, (2.0, 2.0, 0.0), None, DT)
+    assert step.v > 0.0
+
+
+def test_async_replaced_goal_keeps_the_robot_on_its_path_until_the_new_plan(office):
+    executor = _Deferred()
+    navigator = nav.Navigator(executor=executor)
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    pose = np.array((2.0, 2.0, 0.0))
+    navigator.step(0.0, pose, None, DT)
+    executor.run_all()
+    for k in range(1, 30):  # drive east along the south corridor
+        step = navigator.step(k * DT, pose, None, DT)
+        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+    assert step.v > 0.1
+    old_path = navigator.path.copy()
+    navigator.set_goal(8.0, 8.4, None, 3.0)  # its plan is slow in coming
+    for k in range(5):
+        step = navigator.step(3.0 + k * DT, pose, None, DT)
+        assert step.status == nav.ACTIVE and step.v > 0.1, step.reason
+        assert "previous path" in step.reason
+        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+    assert np.array_equal(navigator.path, old_path)
+    executor.run_all()
+    step = navigator.step(3.5, pose, None, DT)
+    assert step.new_path is not None and np.allclose(step.new_path[-1], (8.0, 8.4), atol=0.1)
+
+
+def test_async_bridge_never_reports_the_old_path_end_as_success(office):
+    executor = _Deferred()
+    navigator = nav.Navigator(executor=executor)
+    navigator.set_map(*office)
+    navigator.set_goal(3.0, 2.0, None, 0.0)
+    pose = np.array((2.0, 2.0, 0.0))
+    navigator.step(0.0, pose, None, DT)
+    executor.run_all()
+    navigator.step(0.1, pose, None, DT)
+    navigator.set_goal(12.0, 2.0, None, 0.2)  # replaced; its plan never comes here
+    for k in range(100):  # 10 s: far longer than the 1 m to the old path's end
+        step = navigator.step(0.3 + k * DT, pose, None, DT)
+        assert step.status == nav.ACTIVE
+        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+    assert step.v == 0.0 and "previous path's end" in step.reason
+    assert pose[0] < 3.3  # waited at the old end, did not wander
+
+
+def test_async_result_for_a_replaced_goal_is_dropped(office):
+    executor = _Deferred()
+    navigator = nav.Navigator(executor=executor)
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    navigator.step(0.0, (2.0, 2.0, 0.0), None, DT)   # job for goal 1
+    navigator.set_goal(8.0, 8.4, None, 0.1)          # before it finished
+    executor.run_all()                               # goal 1's plan lands
+    step = navigator.step(0.2, (2.0, 2.0, 0.0), None, DT)
+    assert step.new_path is None and step.v == 0.0   # not taken as goal 2's path
+    executor.run_all()                               # goal 2's plan
+    step = navigator.step(0.3, (2.0, 2.0, 0.0), None, DT)
+    assert step.new_path is not None and np.allclose(step.new_path[-1], (8.0, 8.4), atol=0.1)

@@ -14,6 +14,13 @@ the laser points in the base frame, and returns the velocity command and the goa
   full circle on the spot (``clearing_rotation_allowed``), gathering laser obstacles, and
   re-plan with them; (3) if still blocked, abort. The stage is reset once the robot has
   made ``progress_reset_distance`` of progress.
+* Planning can run off the control loop (``Navigator(executor=...)``, as move_base's planner
+  thread): the step that finds a plan due hands a snapshot of map, start, goal and laser
+  marks to the executor and keeps following the current path; the result is taken over by
+  the first step after it is ready (a result for an older goal is dropped). When a goal
+  replaces an active one, the robot keeps following the previous path (it never reports
+  that path's end as success) until the new goal's first plan arrives, instead of stopping
+  for the planning time. Without an executor every plan is made inside ``step``.
 """
 from __future__ import annotations
 
@@ -91,16 +98,38 @@ class _MapData:
     stamp: int  # increases with every update
 
 
+def _make_plan(grid: np.ndarray, info: GridInfo, params: pln.PlannerParams,
+               marks: Optional[np.ndarray], start_xy: np.ndarray,
+               goal_xy: np.ndarray) -> pln.PlanResult:
+    """Costmap + plan from a snapshot of the inputs (runs in the executor when async)."""
+    return pln.plan(pln.Costmap(grid, info, params, marks), start_xy, goal_xy)
+
+
+@dataclass
+class _Job:
+    """A plan being made by the executor."""
+
+    future: object  # concurrent.futures.Future-like: done(), result()
+    goal: _Goal
+    map_stamp: int
+
+
 class Navigator:
     def __init__(self, planner_params: Optional[pln.PlannerParams] = None,
                  controller_params: Optional[ctl.ControllerParams] = None,
-                 params: Optional[NavParams] = None):
+                 params: Optional[NavParams] = None, executor=None):
+        """``executor``: an object with ``submit(fn, *args)`` returning a future
+        (``concurrent.futures.ThreadPoolExecutor(1)``) to plan off the control loop;
+        None plans inside ``step``."""
         self.planner_params = planner_params or pln.PlannerParams()
         self.params = params or NavParams()
         self.follower = ctl.PathFollower(controller_params)
+        self.executor = executor
         self.map: Optional[_MapData] = None
         self.goal: Optional[_Goal] = None
         self.status = IDLE
+        self.job: Optional[_Job] = None
+        self.bridging = False  # following the replaced goal's path until the first plan
         self._reset_goal_state()
 
     def _reset_goal_state(self) -> None:
@@ -124,15 +153,26 @@ class Navigator:
 
     def set_goal(self, x: float, y: float, yaw: Optional[float], now: float) -> None:
         """A new goal (map frame) replaces any active one."""
+        # async: a robot driving on a path keeps to it until the new goal's first plan
+        self.bridging = self.executor is not None and self.status == ACTIVE \
+            and self.have_path and self.rotating_left <= 0.0
         self.goal = _Goal(np.array([x, y], dtype=float), yaw, now)
         self.status = ACTIVE
+        self.job = None  # a plan in the making is for the old goal: dropped when it lands
         self._reset_goal_state()
-        self.follower.set_path(np.zeros((0, 2)))
+        if self.bridging:  # same path, the replaced goal's "reached" state forgotten
+            index = self.follower.index
+            self.follower.set_path(self.follower.path, self.follower.goal_yaw)
+            self.follower.index = index
+        else:
+            self.follower.set_path(np.zeros((0, 2)))
 
     def cancel(self) -> None:
         """Drops the goal; the caller sends a zero command."""
         self.goal = None
         self.status = IDLE
+        self.job = None
+        self.bridging = False
         self.follower.reset()
         self._reset_goal_state()
 
@@ -140,6 +180,8 @@ class Navigator:
     def _abort(self, reason: str) -> Step:
         self.status = ABORTED
         self.goal = None
+        self.job = None
+        self.bridging = False
         self.follower.reset()
         return Step(0.0, 0.0, ABORTED, reason)
 
@@ -152,11 +194,30 @@ class Navigator:
     def _plan(self, pose: Sequence[float], now: float,
               marks: Optional[np.ndarray]) -> pln.PlanResult:
         m = self.map
-        costmap = pln.Costmap(m.grid, m.info, self.planner_params, marks)
-        result = pln.plan(costmap, pose[:2], self.goal.xy)
+        result = _make_plan(m.grid, m.info, self.planner_params, marks,
+                            np.asarray(pose[:2], dtype=float), self.goal.xy)
         self.last_plan_time = now
         self.planned_map = m.stamp
         return result
+
+    def _submit(self, pose: Sequence[float], now: float, marks: Optional[np.ndarray]) -> None:
+        """Async: hands a snapshot of the planning inputs to the executor."""
+        m = self.map
+        future = self.executor.submit(_make_plan, m.grid, m.info, self.planner_params, marks,
+                                      np.array(pose[:2], dtype=float), self.goal.xy.copy())
+        self.job = _Job(future, self.goal, m.stamp)
+        self.last_plan_time = now
+        self.planned_map = m.stamp
+
+    def _collect(self) -> Optional[pln.PlanResult]:
+        """Async: the finished plan for the current goal, if any (else None)."""
+        job = self.job
+        if job is None or not job.future.done():
+            return None
+        self.job = None
+        if job.goal is not self.goal:
+            return None
+        return job.future.result()
 
     def _replan_due(self, now: float) -> bool:
         f = self.params.planner_frequency
@@ -180,6 +241,12 @@ class Navigator:
         new_path, abort = self._update_plan(now, pose, obstacles)
         if abort:
             return self._abort(abort)
+        if not self.have_path and self.bridging and self.job is not None:
+            cmd = self.follower.compute(pose, obstacles, dt)  # the replaced goal's path
+            if cmd.state == ctl.GOAL_REACHED:  # its end is not this goal's: wait there
+                self.follower.reset()
+                return Step(0.0, 0.0, ACTIVE, "planning (at the previous path's end)")
+            return Step(cmd.v, cmd.w, ACTIVE, "planning (following the previous path)")
         if not self.have_path:  # nothing to follow yet: stand still, keep trying
             self.follower.reset()
             return Step(0.0, 0.0, ACTIVE, "planning: " + self.last_plan_error)
@@ -215,16 +282,29 @@ class Navigator:
         if self.map is None:
             self.last_plan_error = "waiting for a map"
             self.plan_fail_since = self.goal.received
-        elif self._replan_due(now):
-            marks = self._world_obstacles(pose, obstacles) if self.recovery_stage else None
-            result = self._plan(pose, now, marks)
-            if result.failure == pln.INVALID_GOAL:
+        else:
+            result = None
+            if self.executor is not None:
+                result = self._collect()
+                if self.job is None and result is None and self._replan_due(now):
+                    marks = self._world_obstacles(pose, obstacles) \
+                        if self.recovery_stage else None
+                    self._submit(pose, now, marks)
+            elif self._replan_due(now):
+                marks = self._world_obstacles(pose, obstacles) if self.recovery_stage else None
+                result = self._plan(pose, now, marks)
+            if result is None:
+                pass
+            elif result.failure == pln.INVALID_GOAL:
                 return None, result.reason
-            if result.ok:
+            elif result.ok:
+                # the goal's first path starts afresh (a bridged path's state is not ours)
+                self.follower.set_path(result.path, self.goal.yaw,
+                                       keep_goal_state=self.have_path)
                 self.plan_fail_since = None
                 self.have_path = True
+                self.bridging = False
                 new_path = result.path
-                self.follower.set_path(result.path, self.goal.yaw, keep_goal_state=True)
             else:
                 self.last_plan_error = result.reason
                 if self.plan_fail_since is None:
