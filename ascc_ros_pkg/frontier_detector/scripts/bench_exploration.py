@@ -117,7 +117,9 @@ def plot(results, out):
             with open(path) as f:
                 s = json.load(f)
             label = "%s seed %d" % (r["strategy"], r["seed"])
-            runs[label] = (s.get("times_s", []), s.get("coverage", []))
+            t, c = s.get("times_s", []), s.get("coverage", [])
+            n = min(len(t), len(c))  # summaries before the report.py fix could differ by one
+            runs[label] = (t[:n], c[:n])
             first = not any(k.startswith(r["strategy"]) for k in styles)
             styles[label] = {"color": colours.get(r["strategy"]), "lw": 1.2, "alpha": 0.8,
                              "label": r["strategy"] if first else None}

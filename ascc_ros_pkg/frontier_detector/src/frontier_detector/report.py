@@ -200,8 +200,7 @@ class ExplorationRecord:
         self.truth, self.truth_info, self.label = truth, truth_info, label
         self.start_xy = start_xy
         self.reach = reachable_area(truth, truth_info, start_xy, clearance_m)
-        self.times_s: list = []
-        self.coverage: list = []
+        self.series: list = []  # (time [s], coverage) pairs: one append, thread-safe
         self.poses: list = []
         self.goals: list = []
         self.bumps = 0
@@ -216,10 +215,17 @@ class ExplorationRecord:
     def add_map(self, t: float, grid: np.ndarray, info_in_truth: MapInfo) -> float:
         c = coverage(grid, info_in_truth, self.truth, self.truth_info, self.start_xy,
                      reachable=self.reach)
-        self.times_s.append(self._rel(t))
-        self.coverage.append(c)
+        self.series.append((self._rel(t), c))
         self.last_map = (grid, info_in_truth)
         return c
+
+    @property
+    def times_s(self) -> list:
+        return [t for t, _ in list(self.series)]
+
+    @property
+    def coverage(self) -> list:
+        return [c for _, c in list(self.series)]
 
     def add_pose(self, t: float, x: float, y: float) -> None:
         self._rel(t)
@@ -233,12 +239,14 @@ class ExplorationRecord:
         self.bumps += 1
 
     def summary(self) -> Dict[str, object]:
-        levels = time_to_coverage(self.times_s, self.coverage)
+        series = list(self.series)  # a snapshot: the monitor's timer may append meanwhile
+        times, covers = [t for t, _ in series], [c for _, c in series]
+        levels = time_to_coverage(times, covers)
         return {
             "label": self.label,
-            "final_coverage": self.coverage[-1] if self.coverage else 0.0,
+            "final_coverage": covers[-1] if covers else 0.0,
             "path_m": path_length(self.poses),
-            "time_s": self.times_s[-1] if self.times_s else 0.0,
+            "time_s": times[-1] if times else 0.0,
             "time_to_coverage_s": {f"{k:.2f}": v for k, v in levels.items()},
             "goals": len(self.goals),
             "bumps": self.bumps,
@@ -265,7 +273,9 @@ class ExplorationRecord:
             s.update(extra)
         base = os.path.join(out_dir, stem or self.file_stem())
         with open(base + ".json", "w", encoding="utf-8") as f:
-            json.dump(dict(s, times_s=self.times_s, coverage=self.coverage), f, indent=1)
+            series = list(self.series)
+            json.dump(dict(s, times_s=[t for t, _ in series], coverage=[c for _, c in series]),
+                      f, indent=1)
         if self.last_map is not None:
             # Draw the explored map resampled into the truth's grid.
             grid, info = self.last_map
@@ -281,6 +291,6 @@ class ExplorationRecord:
                           self.poses, self.goals, robot_xy=self.poses[-1] if self.poses
                           else None, title=f"{self.label}: {s['path_m']:.1f} m, "
                           f"{100 * float(s['final_coverage']):.1f} %")
-        write_coverage_plot(base + "_coverage.png", {self.label: (self.times_s, self.coverage)},
-                            title=self.label)
+        curve = ([t for t, _ in series], [c for _, c in series])
+        write_coverage_plot(base + "_coverage.png", {self.label: curve}, title=self.label)
         return s
