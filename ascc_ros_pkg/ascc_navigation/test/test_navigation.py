@@ -16,6 +16,11 @@ def office():
     return syn.office_world()
 
 
+def _drive(pose, step):
+    """Moves a unicycle pose (in place) by one step's command for DT."""
+    pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+
+
 def _run(navigator, pose, t0=0.0, seconds=120.0, obstacles=None):
     """Drives a unicycle with the navigator's commands; returns (last step, pose, steps)."""
     pose = np.array(pose, dtype=float)
@@ -26,7 +31,7 @@ def _run(navigator, pose, t0=0.0, seconds=120.0, obstacles=None):
         steps.append(step)
         if step.status != nav.ACTIVE:
             break
-        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+        _drive(pose, step)
         t += DT
     return steps[-1], pose, steps
 
@@ -211,10 +216,9 @@ def test_async_planning_with_a_thread_reaches_the_goal(office):
             last = navigator.step(k * DT, pose, None, DT)
             if last.status != nav.ACTIVE:
                 break
-            pose += [last.v * DT * np.cos(pose[2]), last.v * DT * np.sin(pose[2]),
-                     last.w * DT]
+            _drive(pose, last)
             if navigator.job is not None:
-                navigator.job.future.result()  # deterministic: wait as a fast planner would
+                navigator.job.result()  # deterministic: wait as a fast planner would
     assert last.status == nav.SUCCEEDED, last.reason
     assert np.hypot(pose[0] - 8.0, pose[1] - 8.4) <= ctl.ControllerParams().xy_goal_tolerance
 
@@ -245,7 +249,7 @@ def test_async_replaced_goal_keeps_the_robot_on_its_path_until_the_new_plan(offi
     executor.run_all()
     for k in range(1, 30):  # drive east along the south corridor
         step = navigator.step(k * DT, pose, None, DT)
-        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+        _drive(pose, step)
     assert step.v > 0.1
     old_path = navigator.path.copy()
     navigator.set_goal(8.0, 8.4, None, 3.0)  # its plan is slow in coming
@@ -253,7 +257,7 @@ def test_async_replaced_goal_keeps_the_robot_on_its_path_until_the_new_plan(offi
         step = navigator.step(3.0 + k * DT, pose, None, DT)
         assert step.status == nav.ACTIVE and step.v > 0.1, step.reason
         assert "previous path" in step.reason
-        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+        _drive(pose, step)
     assert np.array_equal(navigator.path, old_path)
     executor.run_all()
     step = navigator.step(3.5, pose, None, DT)
@@ -273,7 +277,7 @@ def test_async_bridge_never_reports_the_old_path_end_as_success(office):
     for k in range(100):  # 10 s: far longer than the 1 m to the old path's end
         step = navigator.step(0.3 + k * DT, pose, None, DT)
         assert step.status == nav.ACTIVE
-        pose += [step.v * DT * np.cos(pose[2]), step.v * DT * np.sin(pose[2]), step.w * DT]
+        _drive(pose, step)
     assert step.v == 0.0 and "previous path's end" in step.reason
     assert pose[0] < 3.3  # waited at the old end, did not wander
 

@@ -105,15 +105,6 @@ def _make_plan(grid: np.ndarray, info: GridInfo, params: pln.PlannerParams,
     return pln.plan(pln.Costmap(grid, info, params, marks), start_xy, goal_xy)
 
 
-@dataclass
-class _Job:
-    """A plan being made by the executor."""
-
-    future: object  # concurrent.futures.Future-like: done(), result()
-    goal: _Goal
-    map_stamp: int
-
-
 class Navigator:
     def __init__(self, planner_params: Optional[pln.PlannerParams] = None,
                  controller_params: Optional[ctl.ControllerParams] = None,
@@ -128,7 +119,8 @@ class Navigator:
         self.map: Optional[_MapData] = None
         self.goal: Optional[_Goal] = None
         self.status = IDLE
-        self.job: Optional[_Job] = None
+        # the executor's future of the plan being made for the current goal (None: none)
+        self.job = None
         self.bridging = False  # following the replaced goal's path until the first plan
         self._reset_goal_state()
 
@@ -203,21 +195,19 @@ class Navigator:
     def _submit(self, pose: Sequence[float], now: float, marks: Optional[np.ndarray]) -> None:
         """Async: hands a snapshot of the planning inputs to the executor."""
         m = self.map
-        future = self.executor.submit(_make_plan, m.grid, m.info, self.planner_params, marks,
-                                      np.array(pose[:2], dtype=float), self.goal.xy.copy())
-        self.job = _Job(future, self.goal, m.stamp)
+        self.job = self.executor.submit(_make_plan, m.grid, m.info, self.planner_params, marks,
+                                        np.array(pose[:2], dtype=float), self.goal.xy.copy())
         self.last_plan_time = now
         self.planned_map = m.stamp
 
     def _collect(self) -> Optional[pln.PlanResult]:
-        """Async: the finished plan for the current goal, if any (else None)."""
+        """Async: the finished plan for the current goal, if any (else None). A plan for a
+        replaced goal never lands here: set_goal/cancel/abort forget its future."""
         job = self.job
-        if job is None or not job.future.done():
+        if job is None or not job.done():
             return None
         self.job = None
-        if job.goal is not self.goal:
-            return None
-        return job.future.result()
+        return job.result()
 
     def _replan_due(self, now: float) -> bool:
         f = self.params.planner_frequency

@@ -219,13 +219,11 @@ class ExplorationRecord:
         self.last_map = (grid, info_in_truth)
         return c
 
-    @property
-    def times_s(self) -> list:
-        return [t for t, _ in list(self.series)]
-
-    @property
-    def coverage(self) -> list:
-        return [c for _, c in list(self.series)]
+    def curve(self) -> Tuple[list, list]:
+        """(times [s], coverages) from one snapshot of the series (the monitor's timer may
+        append meanwhile)."""
+        series = list(self.series)
+        return [t for t, _ in series], [c for _, c in series]
 
     def add_pose(self, t: float, x: float, y: float) -> None:
         self._rel(t)
@@ -239,8 +237,7 @@ class ExplorationRecord:
         self.bumps += 1
 
     def summary(self) -> Dict[str, object]:
-        series = list(self.series)  # a snapshot: the monitor's timer may append meanwhile
-        times, covers = [t for t, _ in series], [c for _, c in series]
+        times, covers = self.curve()
         levels = time_to_coverage(times, covers)
         return {
             "label": self.label,
@@ -273,9 +270,8 @@ class ExplorationRecord:
             s.update(extra)
         base = os.path.join(out_dir, stem or self.file_stem())
         with open(base + ".json", "w", encoding="utf-8") as f:
-            series = list(self.series)
-            json.dump(dict(s, times_s=[t for t, _ in series], coverage=[c for _, c in series]),
-                      f, indent=1)
+            times, covers = self.curve()
+            json.dump(dict(s, times_s=times, coverage=covers), f, indent=1)
         if self.last_map is not None:
             # Draw the explored map resampled into the truth's grid.
             grid, info = self.last_map
@@ -291,6 +287,6 @@ class ExplorationRecord:
                           self.poses, self.goals, robot_xy=self.poses[-1] if self.poses
                           else None, title=f"{self.label}: {s['path_m']:.1f} m, "
                           f"{100 * float(s['final_coverage']):.1f} %")
-        curve = ([t for t, _ in series], [c for _, c in series])
-        write_coverage_plot(base + "_coverage.png", {self.label: curve}, title=self.label)
+        write_coverage_plot(base + "_coverage.png", {self.label: (times, covers)},
+                            title=self.label)
         return s
