@@ -330,6 +330,23 @@ def test_odometry_jump_is_ignored_and_absorbed_by_map_to_odom():
     assert np.allclose(after, before + [0.3, 0.0, 0.0], atol=0.03)
 
 
+def test_a_long_step_after_a_long_gap_is_motion_not_a_jump():
+    """Scans dropped for late TF (a loaded machine): 1.2 m and a quarter turn in 3 s is
+    driving, not an odometry reset; ignoring it would rotate the map by the turn."""
+    mapper = _mapper()
+    p0 = np.array([2.0, 2.0, 0.0])
+    mapper.handle_scan(_scan_input(1.0, _room_scan(p0)), p0, MOUNT)
+    p1 = np.array([2.6, 3.0, math.pi / 2])  # 1.17 m away, turned by 90 deg
+    out = mapper.handle_scan(_scan_input(4.0, _room_scan(p1)), p1, MOUNT)
+    assert out.status == M.UPDATED, out
+    assert np.allclose(mapper.robot_pose(), p1, atol=0.05)
+    # the same step within one scan period is a jump
+    quick = _mapper()
+    quick.handle_scan(_scan_input(1.0, _room_scan(p0)), p0, MOUNT)
+    out = quick.handle_scan(_scan_input(1.1, _room_scan(p1)), p1, MOUNT)
+    assert out.status == M.REJECTED and "jumped" in out.reason
+
+
 def test_mapping_a_loop_of_the_synthetic_office():
     """Short end-to-end run: drifting odometry, noisy scans; the map must agree with the
     ground truth and the pose must stay close, and the map must grow beyond its start."""

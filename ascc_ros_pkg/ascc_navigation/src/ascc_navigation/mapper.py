@@ -33,6 +33,9 @@ class MapperConfig:
     throttle_scans: int = 1         # [throttle_scans] process every n-th scan only
     odom_jump_m: float = 1.0        # odometry moving more than this [m] between two scans
     #                                 is a jump (reset odometry / teleport): not used as motion
+    odom_jump_speed_mps: float = 1.0  # ... unless the scans are so far apart in time that a
+    #                                 robot at this speed [m/s] could have driven it (scans
+    #                                 dropped for late TF under load): then it is motion
     rbpf: Optional[RbpfConfig] = None
 
     def __post_init__(self):
@@ -73,6 +76,8 @@ PARAMETERS: List[Tuple[str, str, type, str]] = [
     ("new_area_margin", "rbpf.new_area_margin", float,
      "beams beyond maxUrange - motion - this [m] are not matched (not gmapping)"),
     ("odom_jump_m", "odom_jump_m", float, "odometry jump [m] treated as a reset (not gmapping)"),
+    ("odom_jump_speed_mps", "odom_jump_speed_mps", float,
+     "a longer step is still motion if slower than this [m/s] (not gmapping)"),
 ]
 
 
@@ -104,6 +109,8 @@ def config_from_parameters(values: Dict[str, Any]) -> MapperConfig:
         raise ValueError("maxUrange must be > 0")
     if cfg.throttle_scans < 1:
         raise ValueError("throttle_scans must be >= 1")
+    if not (cfg.odom_jump_m > 0 and cfg.odom_jump_speed_mps >= 0):
+        raise ValueError("odom_jump_m must be > 0 and odom_jump_speed_mps >= 0")
     cfg.rbpf.validate()
     return cfg
 
@@ -225,6 +232,7 @@ class SlamMapper:
                            "; ".join(p for p in (reset_reason, problem) if p))
         self.scan_count += 1
         previous_odom = self.last_odom
+        previous_stamp = self.last_stamp
         self.last_stamp = scan.stamp
         self.last_odom = odom_pose
         if not self.slam.initialized:
@@ -236,12 +244,15 @@ class SlamMapper:
             return Outcome(RESET if reset_reason else STARTED, reset_reason, stats)
         step = relative(previous_odom, odom_pose)
         jump = math.hypot(step[0], step[1])
-        if jump > self.cfg.odom_jump_m:
-            # The odometry frame jumped (driver restart, odometry reset); the robot did not
-            # move that far in one scan period: re-anchor, as if it had not moved at all.
+        gap = scan.stamp - previous_stamp
+        if jump > self.cfg.odom_jump_m and jump > self.cfg.odom_jump_speed_mps * gap:
+            # The odometry frame jumped (driver restart, odometry reset); the robot could not
+            # have driven that far since the previous scan: re-anchor, as if it had not moved.
+            # (A long step after a long gap, e.g. scans dropped for late TF, is motion.)
             self.update_odom = compose(odom_pose, relative(previous_odom, self.update_odom))
-            return Outcome(REJECTED, "odometry jumped by %.2f m between two scans (more than "
-                           "odom_jump_m): motion ignored" % jump)
+            return Outcome(REJECTED, "odometry jumped by %.2f m in %.2f s between two scans "
+                           "(more than odom_jump_m, faster than odom_jump_speed_mps): motion "
+                           "ignored" % (jump, gap))
         self.travelled += jump
         self.turned += abs(float(step[2]))
         if self.scan_count % self.cfg.throttle_scans:
