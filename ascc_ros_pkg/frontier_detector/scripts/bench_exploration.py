@@ -10,6 +10,10 @@ a table to OUT/results.json. Runs already in OUT/results.json from an earlier ca
 (a run with the same world, strategy and seed is replaced), so the benchmark can be run in
 batches; `--report-only` only prints the table again and redraws the plots
 (OUT/coverage_<world>.png: coverage vs time of every run, one colour per strategy).
+Coverage alone cannot tell a broken SLAM map (one that maps a corridor twice still "knows"
+the ground truth's cells), so every run's final map is also compared with the world's
+ground truth (`map_ok`: known cells of the map, placed by the start pose, that agree with the
+truth; ascc_navigation.grid.map_agreement).
 Long: an office run takes 2-4 minutes of wall time, a corridor run 5-10.
 
     python ascc_ros_pkg/frontier_detector/scripts/bench_exploration.py \
@@ -53,8 +57,24 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
     return {"world": world, "strategy": strategy, "seed": seed, "wall_s": round(wall, 1),
             "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
             "time_s": s.get("time_s"), "bumps": s.get("bumps"),
-            "end": s.get("end_reason"),
+            "end": s.get("end_reason"), "map_ok": map_check(run_dir, world),
             "time_to": {lv: s.get("time_to_coverage_s", {}).get(lv) for lv in LEVELS}}
+
+
+def map_check(run_dir, world):
+    """Share of the final SLAM map's known cells that agree with the world's ground truth
+    (cells off the truth's known area count as disagreeing); None without a saved map."""
+    from ascc_navigation.grid import load_map_yaml, map_agreement
+
+    explored = os.path.join(run_dir, "summary_explored.yaml")
+    if not os.path.exists(explored):
+        return None
+    est, est_info = load_map_yaml(explored)  # saved in the truth's frame (report.compose)
+    truth, truth_info = load_map_yaml(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
+                                                   "maps", world + ".yaml"))
+    a = map_agreement(est, est_info, truth, truth_info)
+    total = a["known"] + a["unmatched"]
+    return a["agree"] / total if total else None
 
 
 def fmt(v, spec="%.1f"):
@@ -75,12 +95,13 @@ def group(results):
 
 def summarise(results):
     """Plain table and a markdown table (for the README) of every (world, strategy)."""
-    print("\n%-9s %-8s %5s %7s %7s %8s %8s %8s %8s %5s" % (
+    print("\n%-9s %-8s %5s %7s %7s %8s %8s %8s %8s %5s %7s" % (
         "world", "strategy", "runs", "cov_min", "cov>=95", "path_m", "t90_s", "t95_s",
-        "t99_s", "hits"))
+        "t99_s", "hits", "map_ok"))
     md = ["| world | strategy | runs | coverage min / mean | runs >= 95 % | path (mean ± sd) "
-          "| time to 90 / 95 / 99 % (mean) | runs reaching 99 % | collisions |",
-          "|---|---|---|---|---|---|---|---|---|"]
+          "| time to 90 / 95 / 99 % (mean) | runs reaching 99 % | collisions "
+          "| map agreement min |",
+          "|---|---|---|---|---|---|---|---|---|---|"]
     for (world, strategy), rs in group(results):
         ok = [r for r in rs if "error" not in r]
         cov = [r["coverage"] for r in ok]
@@ -89,16 +110,21 @@ def summarise(results):
         n99 = sum(r["time_to"]["0.99"] is not None for r in ok)
         t = [mean([r["time_to"][lv] for r in ok]) for lv in LEVELS]
         hits = sum(r["bumps"] or 0 for r in ok)
-        print("%-9s %-8s %5d %7s %7s %8s %8s %8s %8s %5s" % (
+        maps = [r.get("map_ok") for r in ok if r.get("map_ok") is not None]
+        map_min = fmt(100 * min(maps), "%.1f %%") if maps else "-"
+        print("%-9s %-8s %5d %7s %7s %8s %8s %8s %8s %5s %7s" % (
             world, strategy, len(rs), fmt(100 * min(cov) if cov else None, "%.1f%%"),
-            "%d/%d" % (n95, len(rs)), fmt(mean(paths)), *(fmt(v) for v in t), hits))
+            "%d/%d" % (n95, len(rs)), fmt(mean(paths)), *(fmt(v) for v in t), hits,
+            map_min.replace(" ", "")))
         sd = (sum((p - mean(paths)) ** 2 for p in paths) / (len(paths) - 1)) ** 0.5 \
             if len(paths) > 1 else 0.0
-        md.append("| %s | %s | %d | %s / %s | %d/%d | %s ± %.1f m | %s / %s / %s s | %d/%d | %d |"
+        md.append("| %s | %s | %d | %s / %s | %d/%d | %s ± %.1f m | %s / %s / %s s | %d/%d | %d "
+                  "| %s |"
                   % (world, strategy, len(rs),
                      fmt(100 * min(cov) if cov else None, "%.1f %%"),
                      fmt(100 * mean(cov) if cov else None, "%.1f %%"), n95, len(rs),
-                     fmt(mean(paths)), sd, *(fmt(v, "%.0f") for v in t), n99, len(ok), hits))
+                     fmt(mean(paths)), sd, *(fmt(v, "%.0f") for v in t), n99, len(ok), hits,
+                     map_min))
     print("\n" + "\n".join(md))
 
 
@@ -151,6 +177,13 @@ def main(argv=None):
         with open(table) as f:
             results = json.load(f)
     if args.report_only:
+        for r in results:  # runs from before the map check
+            if "map_ok" not in r and "error" not in r:
+                r["map_ok"] = map_check(os.path.join(
+                    args.out, "%s_%s_seed%d" % (r["world"], r["strategy"], r["seed"])),
+                    r["world"])
+        with open(table, "w") as f:
+            json.dump(results, f, indent=1)
         summarise(results)
         plot(results, args.out)
         return 0
