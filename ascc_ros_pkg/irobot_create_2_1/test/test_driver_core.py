@@ -4,7 +4,7 @@ import math
 import pytest
 
 from irobot_create_2_1 import protocol as oi
-from irobot_create_2_1.driver_core import CreateDriverCore
+from irobot_create_2_1.driver_core import CreateDriverCore, StreamClock
 from irobot_create_2_1.kinematics import twist_to_wheels, wheels_to_twist
 from irobot_create_2_1.odometry import Odometry, integrate_arc
 from irobot_create_2_1.sensor_state import battery_si, brown_fields
@@ -141,3 +141,70 @@ def test_bad_parameters_refused():
         CreateDriverCore(mode="passive")
     with pytest.raises(ValueError):
         CreateDriverCore(cmd_timeout_s=0.0)
+
+
+# --- frame time stamps (StreamClock) -------------------------------------------------------
+P = oi.STREAM_PERIOD_S
+
+
+def test_stream_clock_on_time_frames_keep_their_arrival_times():
+    clock = StreamClock()
+    for k in range(200):
+        (stamp,) = clock.stamps(1, 10.0 + k * P)
+        assert stamp == pytest.approx(10.0 + k * P, abs=1e-9)
+
+
+def test_stream_clock_spreads_a_backlog_over_the_cadence():
+    # frames every 15 ms; the reader is starved for 1 s and then gets 67 frames at once
+    clock = StreamClock()
+    for k in range(20):
+        clock.stamps(1, k * P)
+    produced = [(20 + i) * P for i in range(67)]
+    stamps = clock.stamps(67, produced[-1] + 0.002)
+    assert stamps == pytest.approx(produced, abs=0.003)
+    # read-time stamping would have put the first of them 1 s late
+    assert produced[-1] - produced[0] > 0.9
+
+
+def test_stream_clock_never_stamps_later_than_arrival():
+    clock = StreamClock(creep=0.1)  # a fast creep would run ahead without the bound
+    for k in range(50):
+        stamps = clock.stamps(3, 1.0 + k * 3 * P)
+        assert stamps[-1] <= 1.0 + k * 3 * P + 1e-12
+
+
+def test_stream_clock_restarts_after_a_pause_and_when_time_goes_back():
+    clock = StreamClock()
+    for k in range(10):
+        clock.stamps(1, k * P)
+    (stamp,) = clock.stamps(1, 5.0)          # stream paused (sim paused, link re-opened)
+    assert stamp == pytest.approx(5.0)
+    assert clock.resyncs == 1
+    stamps = clock.stamps(2, 1.0)            # simulator restarted: time went back
+    assert stamps == pytest.approx([1.0 - P, 1.0])
+    assert clock.resyncs == 2
+
+
+def test_stream_clock_stamps_never_decrease_under_jitter():
+    import random
+    rng = random.Random(3)
+    clock = StreamClock()
+    produced, last = 0.0, -1.0
+    for _ in range(2000):
+        n = rng.choice([1, 1, 1, 2, 3, 30])
+        produced += n * P
+        stamps = clock.stamps(n, produced + rng.uniform(0.0, 0.01))
+        assert stamps == sorted(stamps) and stamps[0] >= last
+        last = stamps[-1]
+
+
+def test_core_stamps_a_burst_by_the_newest_frame():
+    core = CreateDriverCore(wheel_base_m=B)
+    core.on_bytes(frame(10, 0), now=1.0)
+    core.on_bytes(b"".join(frame(10, 0) for _ in range(40)), now=1.0 + 40 * P + 0.3)
+    assert core.last_frame_time == pytest.approx(1.0 + 40 * P + 0.3)
+    # 0.3 s unaccounted for by the frames: more than resync_s, so the stream restarts
+    assert core.last_frame_stamp == pytest.approx(core.last_frame_time)
+    core.on_bytes(b"".join(frame(10, 0) for _ in range(40)), now=core.last_frame_time + 0.8)
+    # 40 frames fill 0.6 of the 0.8 s: the newest is stamped by the cadence, not the read
+    assert core.last_frame_stamp == pytest.approx(core.last_frame_time - 0.2, abs=0.002)

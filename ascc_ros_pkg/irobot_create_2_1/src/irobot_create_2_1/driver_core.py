@@ -12,6 +12,59 @@ from .sensor_state import hazards, increments_si
 STREAM_PACKETS = (6,)
 
 
+class StreamClock:
+    """When each stream frame was measured, from the Create's 15 ms cadence.
+
+    The host reads the serial line when it gets around to it: on a loaded robot PC (or a
+    simulator running faster than real time) a second of frames can wait in the buffer and
+    arrive in one read. Stamping them all with the read time would make the odometry lag
+    the robot and then jump, which a mapper sees as a wrong turn. Frames come every
+    ``period_s``, so a read of n frames at time ``received`` is stamped
+
+        stamp_i = min(received - (n-1-i) * period_s,        # the newest arrived by now
+                      previous + (i+1) * period_s * (1 + creep))   # the cadence goes on
+
+    The second term carries the cadence through a backlog; ``creep`` lets the estimate
+    settle onto the earliest arrivals (the line's minimum latency) when the robot's clock
+    runs a little slow. If the frames cannot fill the time since the previous one by more
+    than ``resync_s`` (the stream paused, frames were lost), or time went backwards, the
+    cadence restarts from the read time. Stamps never decrease.
+    """
+
+    def __init__(self, period_s: float = protocol.STREAM_PERIOD_S, resync_s: float = 0.25,
+                 creep: float = 1e-3):
+        if not (period_s > 0 and resync_s > 0 and creep >= 0):
+            raise ValueError("period_s and resync_s must be > 0, creep >= 0")
+        self.period_s = period_s
+        self.resync_s = resync_s
+        self.creep = creep
+        self.last: Optional[float] = None  # stamp of the newest frame
+        self.resyncs = 0
+
+    def reset(self) -> None:
+        self.last = None
+
+    def stamps(self, n: int, received: float) -> List[float]:
+        """Stamps of n frames that arrived together at ``received`` (oldest first)."""
+        if n <= 0:
+            return []
+        p = self.period_s
+        latest = [received - (n - 1 - i) * p for i in range(n)]
+        last = self.last
+        if last is None or received < last - self.resync_s or latest[0] - (last + p) > \
+                self.resync_s:
+            if last is not None:
+                self.resyncs += 1
+            out = latest
+        else:
+            step = p * (1.0 + self.creep)
+            out = []
+            for i, bound in enumerate(latest):
+                out.append(max(min(bound, last + (i + 1) * step), last))
+        self.last = out[-1]
+        return out
+
+
 class CreateDriverCore:
     def __init__(self, wheel_base_m: float = 0.258, mode: str = "safe",
                  cmd_timeout_s: float = 0.5, stop_on_bump: bool = True,
@@ -30,7 +83,9 @@ class CreateDriverCore:
         self.parser = protocol.StreamParser(STREAM_PACKETS)
         self.odom = odometry or Odometry()
         self.values: Dict[int, int] = {}
-        self.last_frame_time: Optional[float] = None
+        self.last_frame_time: Optional[float] = None  # when the newest frame arrived
+        self.stream_clock = StreamClock()
+        self.last_frame_stamp: Optional[float] = None  # when it was measured (StreamClock)
         # commanded body twist and when it came (None: never)
         self._twist: Tuple[float, float] = (0.0, 0.0)
         self._cmd_time: Optional[float] = None
@@ -46,6 +101,7 @@ class CreateDriverCore:
         """Bytes that wake the robot, pick the mode and start the sensor stream. Sent on
         every (re)connection; the wheels start stopped."""
         self._sent = None
+        self.stream_clock.reset()
         mode = protocol.safe() if self.mode == "safe" else protocol.full()
         return (protocol.start() + mode + protocol.drive_direct(0, 0)
                 + protocol.stream(STREAM_PACKETS))
@@ -60,6 +116,7 @@ class CreateDriverCore:
             self.values.update(values)
         if frames:
             self.last_frame_time = now
+            self.last_frame_stamp = self.stream_clock.stamps(len(frames), now)[-1]
         return frames
 
     def sensors_stale(self, now: float, timeout_s: float) -> bool:
