@@ -16,30 +16,27 @@ class StreamClock:
     """When each stream frame was measured, from the Create's 15 ms cadence.
 
     The host reads the serial line when it gets around to it: on a loaded robot PC (or a
-    simulator running faster than real time) a second of frames can wait in the buffer and
-    arrive in one read. Stamping them all with the read time would make the odometry lag
-    the robot and then jump, which a mapper sees as a wrong turn. Frames come every
-    ``period_s``, so a read of n frames at time ``received`` is stamped
+    simulator running faster than real time) many frames can wait in the buffer and arrive
+    in one read. Stamped all with the read time, the odometry pose would stand still and
+    then jump, and TF would interpolate a straight line across the gap. The newest frame of
+    a read is taken as measured at the read time, the older ones one ``period_s`` apart
+    before it:
 
-        stamp_i = min(received - (n-1-i) * period_s,        # the newest arrived by now
-                      previous + (i+1) * period_s * (1 + creep))   # the cadence goes on
+        stamp_i = max(received - (n-1-i) * period_s, previous stamp)
 
-    The second term carries the cadence through a backlog; ``creep`` lets the estimate
-    settle onto the earliest arrivals (the line's minimum latency) when the robot's clock
-    runs a little slow. If the frames cannot fill the time since the previous one by more
-    than ``resync_s`` (the stream paused, frames were lost), or time went backwards, the
-    cadence restarts from the read time. Stamps never decrease.
+    so a single frame per read keeps its read time (no bias when the host keeps up) and
+    stamps never decrease. Time going back by more than ``reset_s`` (a restarted simulator
+    or bag) starts afresh. (A min-latency filter along the cadence was tried: in the
+    simulator the host's /clock jitters and it stamped the odometry 0.1 s early.)
     """
 
-    def __init__(self, period_s: float = protocol.STREAM_PERIOD_S, resync_s: float = 0.25,
-                 creep: float = 1e-3):
-        if not (period_s > 0 and resync_s > 0 and creep >= 0):
-            raise ValueError("period_s and resync_s must be > 0, creep >= 0")
+    def __init__(self, period_s: float = protocol.STREAM_PERIOD_S, reset_s: float = 0.25):
+        if not (period_s > 0 and reset_s > 0):
+            raise ValueError("period_s and reset_s must be > 0")
         self.period_s = period_s
-        self.resync_s = resync_s
-        self.creep = creep
+        self.reset_s = reset_s
         self.last: Optional[float] = None  # stamp of the newest frame
-        self.resyncs = 0
+        self.resets = 0
 
     def reset(self) -> None:
         self.last = None
@@ -48,19 +45,12 @@ class StreamClock:
         """Stamps of n frames that arrived together at ``received`` (oldest first)."""
         if n <= 0:
             return []
-        p = self.period_s
-        latest = [received - (n - 1 - i) * p for i in range(n)]
+        out = [received - (n - 1 - i) * self.period_s for i in range(n)]
         last = self.last
-        if last is None or received < last - self.resync_s or latest[0] - (last + p) > \
-                self.resync_s:
-            if last is not None:
-                self.resyncs += 1
-            out = latest
-        else:
-            step = p * (1.0 + self.creep)
-            out = []
-            for i, bound in enumerate(latest):
-                out.append(max(min(bound, last + (i + 1) * step), last))
+        if last is not None and received < last - self.reset_s:
+            self.resets += 1
+        elif last is not None:
+            out = [max(t, last) for t in out]
         self.last = out[-1]
         return out
 
@@ -86,6 +76,8 @@ class CreateDriverCore:
         self.last_frame_time: Optional[float] = None  # when the newest frame arrived
         self.stream_clock = StreamClock()
         self.last_frame_stamp: Optional[float] = None  # when it was measured (StreamClock)
+        # (stamp, odometry pose x y theta) after each frame of the last on_bytes call
+        self.frame_poses: List[Tuple[float, Tuple[float, float, float]]] = []
         # commanded body twist and when it came (None: never)
         self._twist: Tuple[float, float] = (0.0, 0.0)
         self._cmd_time: Optional[float] = None
@@ -110,13 +102,16 @@ class CreateDriverCore:
     def on_bytes(self, data: bytes, now: float) -> List[Dict[int, int]]:
         """Feed bytes from the robot; complete frames update odometry and the state."""
         frames = self.parser.feed(data)
-        for values in frames:
+        stamps = self.stream_clock.stamps(len(frames), now)
+        self.frame_poses = []
+        for values, stamp in zip(frames, stamps):
             distance_m, dtheta_rad = increments_si(values)
             self.odom.update(distance_m, dtheta_rad)
             self.values.update(values)
+            self.frame_poses.append((stamp, self.odom.pose))
         if frames:
             self.last_frame_time = now
-            self.last_frame_stamp = self.stream_clock.stamps(len(frames), now)[-1]
+            self.last_frame_stamp = stamps[-1]
         return frames
 
     def sensors_stale(self, now: float, timeout_s: float) -> bool:
