@@ -239,14 +239,21 @@ def test_async_planning_stands_still_until_the_first_plan(office):
     assert step.v > 0.0
 
 
-def test_async_replaced_goal_keeps_the_robot_on_its_path_until_the_new_plan(office):
+def _async_navigator(office, goal_x, goal_y):
+    """A navigator on a deferred executor, at (2, 2) heading east, whose first plan (to
+    the goal) has been made: (executor, navigator, pose)."""
     executor = _Deferred()
     navigator = nav.Navigator(executor=executor)
     navigator.set_map(*office)
-    navigator.set_goal(12.0, 2.0, None, 0.0)
+    navigator.set_goal(goal_x, goal_y, None, 0.0)
     pose = np.array((2.0, 2.0, 0.0))
     navigator.step(0.0, pose, None, DT)
     executor.run_all()
+    return executor, navigator, pose
+
+
+def test_async_replaced_goal_keeps_the_robot_on_its_path_until_the_new_plan(office):
+    executor, navigator, pose = _async_navigator(office, 12.0, 2.0)
     for k in range(1, 30):  # drive east along the south corridor
         step = navigator.step(k * DT, pose, None, DT)
         _drive(pose, step)
@@ -265,13 +272,7 @@ def test_async_replaced_goal_keeps_the_robot_on_its_path_until_the_new_plan(offi
 
 
 def test_async_bridge_never_reports_the_old_path_end_as_success(office):
-    executor = _Deferred()
-    navigator = nav.Navigator(executor=executor)
-    navigator.set_map(*office)
-    navigator.set_goal(3.0, 2.0, None, 0.0)
-    pose = np.array((2.0, 2.0, 0.0))
-    navigator.step(0.0, pose, None, DT)
-    executor.run_all()
+    executor, navigator, pose = _async_navigator(office, 3.0, 2.0)
     navigator.step(0.1, pose, None, DT)
     navigator.set_goal(12.0, 2.0, None, 0.2)  # replaced; its plan never comes here
     for k in range(100):  # 10 s: far longer than the 1 m to the old path's end
