@@ -75,7 +75,6 @@ class CreateDriverCore:
         self.values: Dict[int, int] = {}
         self.last_frame_time: Optional[float] = None  # when the newest frame arrived
         self.stream_clock = StreamClock()
-        self.last_frame_stamp: Optional[float] = None  # when it was measured (StreamClock)
         # (stamp, odometry pose x y theta) after each frame of the last on_bytes call
         self.frame_poses: List[Tuple[float, Tuple[float, float, float]]] = []
         # commanded body twist and when it came (None: never)
@@ -111,8 +110,12 @@ class CreateDriverCore:
             self.frame_poses.append((stamp, self.odom.pose))
         if frames:
             self.last_frame_time = now
-            self.last_frame_stamp = stamps[-1]
         return frames
+
+    @property
+    def last_frame_stamp(self) -> Optional[float]:
+        """When the newest frame was measured (StreamClock); None before the first."""
+        return self.stream_clock.last
 
     def sensors_stale(self, now: float, timeout_s: float) -> bool:
         return self.last_frame_time is None or now - self.last_frame_time > timeout_s
