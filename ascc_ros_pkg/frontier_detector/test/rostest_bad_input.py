@@ -8,6 +8,8 @@
 Waits on conditions with timeouts, no fixed sleeps.
 """
 
+import os
+import sys
 import threading
 import unittest
 
@@ -20,10 +22,13 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from condition_wait import ConditionWaitMixin  # noqa: E402  (test helper next to this file)
+
 NODE = "frontier_explorer"
 
 
-class BadInputTest(unittest.TestCase):
+class BadInputTest(ConditionWaitMixin, unittest.TestCase):
     def setUp(self):
         self.cond = threading.Condition()
         self.statuses = []
@@ -40,15 +45,6 @@ class BadInputTest(unittest.TestCase):
         with self.cond:
             self.statuses.append(msg.data)
             self.cond.notify_all()
-
-    def wait_for(self, predicate, timeout, what):
-        deadline = rospy.get_time() + timeout
-        with self.cond:
-            while not predicate():
-                left = deadline - rospy.get_time()
-                if left <= 0 or rospy.is_shutdown():
-                    self.fail("timed out waiting for %s (statuses %s)" % (what, self.statuses))
-                self.cond.wait(min(left, 0.5))
 
     def test_reports_and_survives(self):
         self.wait_for(lambda: "waiting_for_move_base" in self.statuses, 30.0,

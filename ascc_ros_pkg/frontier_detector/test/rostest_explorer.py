@@ -23,6 +23,7 @@ from visualization_msgs.msg import MarkerArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fake_world  # noqa: E402  (test helper next to this file)
+from condition_wait import ConditionWaitMixin  # noqa: E402
 
 from frontier_detector.report import coverage  # noqa: E402
 from frontier_detector.rosmsg import grid_from_msg  # noqa: E402
@@ -30,7 +31,7 @@ from frontier_detector.rosmsg import grid_from_msg  # noqa: E402
 NODE = "frontier_explorer"
 
 
-class ExplorerTest(unittest.TestCase):
+class ExplorerTest(ConditionWaitMixin, unittest.TestCase):
     def setUp(self):
         self.cond = threading.Condition()
         self.statuses = []
@@ -61,15 +62,6 @@ class ExplorerTest(unittest.TestCase):
         with self.cond:
             self.marker_ns.update(m.ns for m in msg.markers if m.points or m.ns == "goal")
             self.cond.notify_all()
-
-    def wait_for(self, predicate, timeout, what):
-        deadline = rospy.get_time() + timeout
-        with self.cond:
-            while not predicate():
-                left = deadline - rospy.get_time()
-                if left <= 0 or rospy.is_shutdown():
-                    self.fail("timed out waiting for " + what)
-                self.cond.wait(min(left, 0.5))
 
     def test_explores_fake_office(self):
         self.wait_for(lambda: self.statuses and self.statuses[-1] == "exploring", 30.0,
