@@ -13,7 +13,11 @@ batches; `--report-only` only prints the table again and redraws the plots
 Coverage alone cannot tell a broken SLAM map (one that maps a corridor twice still "knows"
 the ground truth's cells), so every run's final map is also compared with the world's
 ground truth (`map_ok`: known cells of the map, placed by the start pose, that agree with the
-truth; ascc_navigation.grid.map_agreement).
+truth; ascc_navigation.grid.map_agreement), and coverage is reported twice: `coverage`, the
+share of the truth's reachable cells that the SLAM map knows *at their true place* (map
+drift counts against it), and `seen`, the share the laser has reached from the robot's true
+poses (frontier_detector.report.SeenArea: the exploration alone). `--report-only`
+back-fills `seen` of runs from before the monitor measured it from their run.bag.
 Long: an office run takes 2-4 minutes of wall time, a corridor run 5-10.
 
     python ascc_ros_pkg/frontier_detector/scripts/bench_exploration.py \
@@ -58,6 +62,7 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
             "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
             "time_s": s.get("time_s"), "bumps": s.get("bumps"),
             "end": s.get("end_reason"), "map_ok": map_check(run_dir, world),
+            "seen": s.get("seen_coverage"),
             "time_to": {lv: s.get("time_to_coverage_s", {}).get(lv) for lv in LEVELS}}
 
 
@@ -75,6 +80,49 @@ def map_check(run_dir, world):
     a = map_agreement(est, est_info, truth, truth_info)
     total = a["known"] + a["unmatched"]
     return a["agree"] / total if total else None
+
+
+def seen_from_bag(run_dir, clearance_m=0.18):
+    """Seen coverage of a run from its run.bag (truth map, true poses, first scan, laser
+    mount), for runs whose monitor did not measure it; None without a bag."""
+    import math
+
+    import rosbag
+
+    from frontier_detector.report import LaserGeometry, SeenArea, reachable_area
+    from frontier_detector.rosmsg import grid_from_msg, yaw_of
+
+    path = os.path.join(run_dir, "run.bag")
+    if not os.path.exists(path):
+        return None
+    truth = area = None
+    mounts, poses = {}, []
+    scan = None
+    with rosbag.Bag(path) as bag:
+        for _topic, m, _t in bag.read_messages(topics=["/scan"]):
+            scan = m
+            break
+        for topic, m, _t in bag.read_messages(
+                topics=["/ground_truth/map", "/ground_truth/asccbot/pose", "/tf_static"]):
+            if topic == "/ground_truth/map":
+                truth = grid_from_msg(m)[:2]
+            elif topic == "/tf_static":
+                mounts.update({tr.child_frame_id: tr.transform.translation.x
+                               for tr in m.transforms})
+            else:
+                p = m.pose
+                poses.append((p.position.x, p.position.y, yaw_of(p.orientation)))
+    if truth is None or scan is None or not poses:
+        return None
+    laser = LaserGeometry(range_m=float(scan.range_max),
+                          fov_rad=float(scan.angle_max - scan.angle_min),
+                          offset_x_m=float(mounts.get(scan.header.frame_id, 0.0)))
+    reach = reachable_area(truth[0], truth[1], poses[0][:2], clearance_m)
+    area = SeenArea(truth[0], truth[1], reach, laser)
+    for x, y, yaw in poses:
+        if math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw):
+            area.add(x, y, yaw)
+    return area.coverage()
 
 
 def fmt(v, spec="%.1f"):
@@ -95,13 +143,13 @@ def group(results):
 
 def summarise(results):
     """Plain table and a markdown table (for the README) of every (world, strategy)."""
-    print("\n%-9s %-8s %5s %7s %7s %8s %8s %8s %8s %5s %7s" % (
+    print("\n%-9s %-8s %5s %7s %7s %8s %8s %8s %8s %5s %7s %8s" % (
         "world", "strategy", "runs", "cov_min", "cov>=95", "path_m", "t90_s", "t95_s",
-        "t99_s", "hits", "map_ok"))
+        "t99_s", "hits", "map_ok", "seen_min"))
     md = ["| world | strategy | runs | coverage min / mean | runs >= 95 % | path (mean ± sd) "
           "| time to 90 / 95 / 99 % (mean) | runs reaching 99 % | collisions "
-          "| map agreement min |",
-          "|---|---|---|---|---|---|---|---|---|---|"]
+          "| map agreement min | seen min / runs >= 95 % seen |",
+          "|---|---|---|---|---|---|---|---|---|---|---|"]
     for (world, strategy), rs in group(results):
         ok = [r for r in rs if "error" not in r]
         cov = [r["coverage"] for r in ok]
@@ -112,19 +160,22 @@ def summarise(results):
         hits = sum(r["bumps"] or 0 for r in ok)
         maps = [r.get("map_ok") for r in ok if r.get("map_ok") is not None]
         map_min = fmt(100 * min(maps), "%.1f %%") if maps else "-"
-        print("%-9s %-8s %5d %7s %7s %8s %8s %8s %8s %5s %7s" % (
+        seen = [r.get("seen") for r in ok if r.get("seen") is not None]
+        seen_min = fmt(100 * min(seen), "%.1f %%") if seen else "-"
+        n95_seen = "%d/%d" % (sum(v >= 0.95 for v in seen), len(rs))
+        print("%-9s %-8s %5d %7s %7s %8s %8s %8s %8s %5s %7s %8s" % (
             world, strategy, len(rs), fmt(100 * min(cov) if cov else None, "%.1f%%"),
             "%d/%d" % (n95, len(rs)), fmt(mean(paths)), *(fmt(v) for v in t), hits,
-            map_min.replace(" ", "")))
+            map_min.replace(" ", ""), seen_min.replace(" ", "")))
         sd = (sum((p - mean(paths)) ** 2 for p in paths) / (len(paths) - 1)) ** 0.5 \
             if len(paths) > 1 else 0.0
         md.append("| %s | %s | %d | %s / %s | %d/%d | %s ± %.1f m | %s / %s / %s s | %d/%d | %d "
-                  "| %s |"
+                  "| %s | %s / %s |"
                   % (world, strategy, len(rs),
                      fmt(100 * min(cov) if cov else None, "%.1f %%"),
                      fmt(100 * mean(cov) if cov else None, "%.1f %%"), n95, len(rs),
                      fmt(mean(paths)), sd, *(fmt(v, "%.0f") for v in t), n99, len(ok), hits,
-                     map_min))
+                     map_min, seen_min, n95_seen if seen else "-"))
     print("\n" + "\n".join(md))
 
 
@@ -177,11 +228,14 @@ def main(argv=None):
         with open(table) as f:
             results = json.load(f)
     if args.report_only:
-        for r in results:  # runs from before the map check
+        for r in results:  # runs from before the map check / the seen coverage
+            run_dir = os.path.join(args.out, "%s_%s_seed%d" % (r["world"], r["strategy"],
+                                                               r["seed"]))
             if "map_ok" not in r and "error" not in r:
-                r["map_ok"] = map_check(os.path.join(
-                    args.out, "%s_%s_seed%d" % (r["world"], r["strategy"], r["seed"])),
-                    r["world"])
+                r["map_ok"] = map_check(run_dir, r["world"])
+            if r.get("seen") is None and "error" not in r:
+                print("seen coverage of %s from its bag ..." % run_dir, flush=True)
+                r["seen"] = seen_from_bag(run_dir)
         with open(table, "w") as f:
             json.dump(results, f, indent=1)
         summarise(results)
@@ -198,8 +252,11 @@ def main(argv=None):
                             args.timeout_s, args.max_time_s)
                 results = [o for o in results if (o["world"], o["strategy"], o["seed"])
                            != (world, strategy, seed)] + [r]
-                print("  coverage %s  path %s m  t90/95/99 %s/%s/%s s  hits %s  (%s s wall)"
+                print("  coverage %s  seen %s  path %s m  t90/95/99 %s/%s/%s s  hits %s  "
+                      "(%s s wall)"
                       % (fmt(100 * r["coverage"] if r.get("coverage") is not None else None,
+                             "%.1f%%"),
+                         fmt(100 * r["seen"] if r.get("seen") is not None else None,
                              "%.1f%%"), fmt(r.get("path_m")),
                          *(fmt(r.get("time_to", {}).get(lv)) for lv in LEVELS),
                          r.get("bumps", "-"), fmt(r.get("wall_s"), "%.0f")), flush=True)

@@ -17,6 +17,9 @@ from frontier_detector.grid import (
     to_trinary,
 )
 from frontier_detector.report import (
+    ExplorationRecord,
+    LaserGeometry,
+    SeenArea,
     coverage,
     path_length,
     reachable_area,
@@ -120,6 +123,59 @@ def test_reachable_area_and_coverage():
     c = coverage(coarse, MapInfo(0.1), t, info, start, 0.18)
     assert c > 0.95
     assert coverage(explored, info, t, info, (50.0, 50.0)) == 0.0   # start off the map
+
+
+def seen_at(area, x, y):
+    return area.known[area.info.world_to_cell(x, y)] != UNKNOWN
+
+
+def test_seen_area_field_of_view_walls_and_range():
+    t, info = two_rooms()
+    reach = reachable_area(t, info, (0.5, 1.0), clearance_m=0.0)
+    area = SeenArea(t, info, reach, LaserGeometry(4.0, math.radians(240.0), 0.0))
+    assert area.coverage() == 0.0
+    assert area.add(0.5, 1.0, 0.0)                      # in the west room, facing the door
+    assert seen_at(area, 1.5, 1.0) and seen_at(area, 1.0, 1.8)
+    assert not seen_at(area, 0.1, 1.0)                  # behind it: outside the 240 deg
+    assert seen_at(area, 3.0, 1.0)                      # east room, through the door
+    assert not seen_at(area, 3.0, 0.1)                  # east room, behind the wall
+    c1 = area.coverage()
+    assert 0.3 < c1 < 0.8
+    assert not area.add(0.52, 1.0, 0.05)                # hardly moved: no cast
+    assert area.casts == 1
+    assert area.add(0.5, 1.0, math.pi)                  # turned round: sees behind
+    assert seen_at(area, 0.1, 1.0) and area.coverage() > c1
+    # Range: a 1 m laser at the same pose does not reach the east room.
+    short = SeenArea(t, info, reach, LaserGeometry(1.0, math.radians(240.0), 0.0))
+    short.add(0.5, 1.0, 0.0)
+    assert seen_at(short, 1.4, 1.0) and not seen_at(short, 3.0, 1.0)
+    # The mount: 0.3 m ahead of the robot's centre the laser sees past a wall's end.
+    t2 = t.copy()
+    t2[10:30, 16] = OCCUPIED                             # wall at x = 0.8 m, y 0.5..1.5
+    ahead = SeenArea(t2, info, reach, LaserGeometry(4.0, math.radians(240.0), 0.0))
+    ahead.add(0.5, 1.0, 0.0)
+    assert not seen_at(ahead, 1.2, 1.0)
+    mounted = SeenArea(t2, info, reach, LaserGeometry(4.0, math.radians(240.0), 0.45))
+    mounted.add(0.5, 1.0, 0.0)
+    assert seen_at(mounted, 1.2, 1.0)
+
+
+def test_exploration_record_seen_coverage(tmp_path):
+    t, info = two_rooms()
+    rec = ExplorationRecord(t, info, (0.5, 1.0), 0.0, label="seen")
+    rec.add_pose(0.0, 0.5, 1.0, 0.0)                    # no laser yet: not cast
+    rec.add_map(0.0, np.full_like(t, UNKNOWN), info)
+    assert rec.summary()["seen_coverage"] is None
+    rec.set_laser(LaserGeometry(4.0, math.radians(240.0), 0.0))
+    for i, x in enumerate(np.linspace(0.5, 3.5, 13)):   # drive east through the door
+        rec.add_pose(1.0 + i, x, 1.0, 0.0)
+        rec.add_map(1.0 + i, np.full_like(t, UNKNOWN), info)
+    s = rec.write(str(tmp_path))
+    assert s["final_coverage"] == 0.0                    # the map stayed empty: not seen
+    assert 0.5 < s["seen_coverage"] < 1.0                # the west room's back corners
+    times, seen = rec.seen_curve()
+    assert len(times) == 13 and all(b >= a for a, b in zip(seen, seen[1:]))
+    assert s["time_to_seen_coverage_s"]["0.99"] is None
 
 
 def test_path_length_and_time_to_coverage():

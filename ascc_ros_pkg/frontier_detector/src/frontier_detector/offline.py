@@ -23,10 +23,10 @@ import numpy as np
 
 from . import explorer as ex
 from .frontiers import traversable_mask
-from .grid import OCCUPIED, UNKNOWN, MapInfo
+from .grid import UNKNOWN, MapInfo
 from .paths import _DC, _DR, _MOVES
 from .planner import Plan, PlannerParams
-from .report import coverage, reachable_area
+from .report import coverage, reachable_area, scan_truth
 
 
 @dataclass
@@ -54,23 +54,6 @@ class OfflineRun:
     trajectory: List[Tuple[float, float]] = field(default_factory=list)
     goals_xy: List[Tuple[float, float]] = field(default_factory=list)
     known: Optional[np.ndarray] = None
-
-
-def scan(truth: np.ndarray, known: np.ndarray, rc: Tuple[int, int], heading: float,
-         range_cells: int, fov: float, n_rays: int) -> None:
-    """Copy truth into known along rays from rc until (and including) the first obstacle."""
-    h, w = truth.shape
-    theta = heading + np.linspace(-fov / 2.0, fov / 2.0, n_rays)
-    s = np.arange(0, range_cells + 1)
-    rr = np.rint(rc[0] + np.sin(theta)[:, None] * s[None, :]).astype(np.int64)
-    cc = np.rint(rc[1] + np.cos(theta)[:, None] * s[None, :]).astype(np.int64)
-    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-    vals = np.where(inside, truth[rr.clip(0, h - 1), cc.clip(0, w - 1)], OCCUPIED)
-    occ = vals == OCCUPIED
-    before = np.zeros_like(occ)
-    before[:, 1:] = np.logical_or.accumulate(occ, axis=1)[:, :-1]
-    seen = inside & ~before
-    known[rr[seen], cc[seen]] = truth[rr[seen], cc[seen]]
 
 
 def backtrack(result: Plan, goal_rc: Tuple[int, int]) -> List[Tuple[int, int]]:
@@ -121,7 +104,8 @@ def run(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float], strateg
     reach = reachable_area(truth, info, start_xy, pp.frontier.footprint_radius_m)
     known = np.full(truth.shape, UNKNOWN, np.int8)
     pose = (float(start_xy[0]), float(start_xy[1]))
-    scan(truth, known, info.world_to_cell(*pose), 0.0, rng_cells, 2 * math.pi, 2 * op.n_rays)
+    scan_truth(truth, known, info.world_to_cell(*pose), 0.0, rng_cells, 2 * math.pi,
+               2 * op.n_rays)
     out = OfflineRun(strategy, ex.EXPLORING, 0, 0, 0.0, trajectory=[pose])
     t, stamp = 0.0, 0
 
@@ -167,8 +151,8 @@ def run(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float], strateg
                 heading = d.goal_yaw                     # turns to face its frontier
             if since_scan >= op.scan_spacing_m or at_goal:
                 since_scan = 0.0
-                scan(truth, known, info.world_to_cell(*pose), heading, rng_cells, fov,
-                     op.n_rays)
+                scan_truth(truth, known, info.world_to_cell(*pose), heading, rng_cells,
+                           fov, op.n_rays)
         t += op.goal_overhead_s
         out.goals_xy.append(goal)
         stamp += 1

@@ -8,6 +8,13 @@ reachable cell is covered when the explored map marks it known (FREE or OCCUPIED
 thick-walled map still covers the room). Maps may differ in origin and resolution: truth
 cells are compared at their centres' world positions.
 
+That map coverage also measures the SLAM map's accuracy: where the map has drifted (0.4 m
+after a 100 m loop), the truth's cells along the walls fall outside the mapped corridor.
+**Seen coverage** (`SeenArea`) measures the exploration alone: a reachable truth cell is
+seen once a ray of the laser (`LaserGeometry`: range, field of view, mount), cast from the
+robot's *true* pose through the truth, has reached it. Map accuracy is measured separately
+(ascc_navigation.grid.map_agreement).
+
 Writers use matplotlib's Agg backend (no display needed): `write_map_png` (map, robot path,
 goals, candidates, robot), `write_coverage_plot` (coverage vs time, one curve per run).
 `ExplorationRecord` collects a whole run (maps, true poses, goals, bumps) and writes its
@@ -18,6 +25,7 @@ No ROS import.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Dict, Iterable, Optional, Sequence, Tuple
 
 import cv2
@@ -66,6 +74,79 @@ def coverage(explored: np.ndarray, explored_info: MapInfo, truth: np.ndarray,
     vals = explored[er[inside], ec[inside]]
     known[inside] = (vals == FREE) | (vals == OCCUPIED)
     return float(np.count_nonzero(known)) / float(rows.size)
+
+
+def scan_truth(truth: np.ndarray, known: np.ndarray, rc: Tuple[int, int], heading: float,
+               range_cells: int, fov: float, n_rays: int) -> None:
+    """Copy truth into known along rays from cell rc until (and including) the first obstacle.
+
+    `n_rays` rays spread evenly over `fov` [rad] around `heading` [rad], each `range_cells`
+    long; cells off the map end a ray.
+    """
+    h, w = truth.shape
+    theta = heading + np.linspace(-fov / 2.0, fov / 2.0, n_rays)
+    s = np.arange(0, range_cells + 1)
+    rr = np.rint(rc[0] + np.sin(theta)[:, None] * s[None, :]).astype(np.int64)
+    cc = np.rint(rc[1] + np.cos(theta)[:, None] * s[None, :]).astype(np.int64)
+    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    vals = np.where(inside, truth[rr.clip(0, h - 1), cc.clip(0, w - 1)], OCCUPIED)
+    occ = vals == OCCUPIED
+    before = np.zeros_like(occ)
+    before[:, 1:] = np.logical_or.accumulate(occ, axis=1)[:, :-1]
+    seen = inside & ~before
+    known[rr[seen], cc[seen]] = truth[rr[seen], cc[seen]]
+
+
+@dataclass
+class LaserGeometry:
+    """What the laser can see: range [m], field of view [rad], mount ahead of the robot's
+    centre [m]. Defaults: the Hokuyo URG-04LX as ascc_sim models it (the monitor reads the
+    real values from the scan and TF)."""
+
+    range_m: float = 4.094
+    fov_rad: float = math.radians(240.0)
+    offset_x_m: float = 0.05
+
+
+class SeenArea:
+    """Seen coverage: which reachable truth cells the laser has reached from true poses.
+
+    `add(x, y, yaw)` casts the laser's rays through the truth (one ray per half cell at full
+    range, so no cell within range is skipped) when the robot moved at least `min_move_m`
+    or turned at least `min_turn_rad` since the last cast; `coverage()` is the seen share
+    of `reach` (a mask over the truth, see reachable_area).
+    """
+
+    def __init__(self, truth: np.ndarray, info: MapInfo, reach: np.ndarray,
+                 laser: LaserGeometry, min_move_m: float = 0.1, min_turn_rad: float = 0.1):
+        self.truth, self.info, self.reach, self.laser = truth, info, reach, laser
+        self.min_move_m, self.min_turn_rad = min_move_m, min_turn_rad
+        self.known = np.full(truth.shape, UNKNOWN, np.int8)
+        self.range_cells = max(1, int(math.ceil(laser.range_m / info.resolution)))
+        self.n_rays = max(2, int(math.ceil(2.0 * laser.fov_rad * self.range_cells)) + 1)
+        self.last: Optional[Tuple[float, float, float]] = None
+        self.casts = 0
+
+    def add(self, x: float, y: float, yaw: float) -> bool:
+        """Cast from the true pose (x, y, yaw) of the robot; True if it cast."""
+        if self.last is not None:
+            lx, ly, lyaw = self.last
+            turn = abs(math.atan2(math.sin(yaw - lyaw), math.cos(yaw - lyaw)))
+            if math.hypot(x - lx, y - ly) < self.min_move_m and turn < self.min_turn_rad:
+                return False
+        self.last = (x, y, yaw)
+        lx = x + self.laser.offset_x_m * math.cos(yaw)
+        ly = y + self.laser.offset_x_m * math.sin(yaw)
+        scan_truth(self.truth, self.known, self.info.world_to_cell(lx, ly), yaw,
+                   self.range_cells, self.laser.fov_rad, self.n_rays)
+        self.casts += 1
+        return True
+
+    def coverage(self) -> float:
+        n = int(np.count_nonzero(self.reach))
+        if n == 0:
+            return 0.0
+        return float(np.count_nonzero(self.reach & (self.known != UNKNOWN))) / float(n)
 
 
 def path_length(xy: Sequence[Sequence[float]]) -> float:
@@ -189,18 +270,24 @@ class ExplorationRecord:
     """What an exploration run did, measured against a ground truth (no ROS).
 
     Feed it the explored map (`add_map`, with its MapInfo already in the truth's frame, see
-    `compose`), the true robot positions (`add_pose`), the goals sent (`add_goal`) and
+    `compose`), the true robot poses (`add_pose`), the goals sent (`add_goal`) and
     bumper hits (`add_bump`); `summary()` gives coverage, path length, time to 90/95/99 %;
     `write()` saves summary JSON, map+path+goals PNG and coverage-vs-time PNG.
+    With a `LaserGeometry` (at construction or `set_laser`), poses with a yaw also feed the
+    seen coverage (`SeenArea`): `seen_coverage` and its times in the summary.
     Times are whatever clock the caller uses (simulated seconds in the simulator).
     """
 
     def __init__(self, truth: np.ndarray, truth_info: MapInfo, start_xy: Tuple[float, float],
-                 clearance_m: float = 0.18, label: str = "run"):
+                 clearance_m: float = 0.18, label: str = "run",
+                 laser: Optional[LaserGeometry] = None):
         self.truth, self.truth_info, self.label = truth, truth_info, label
         self.start_xy = start_xy
         self.reach = reachable_area(truth, truth_info, start_xy, clearance_m)
-        self.series: list = []  # (time [s], coverage) pairs: one append, thread-safe
+        self.series: list = []  # (time [s], coverage, seen coverage or None): one append
+        self.seen: Optional[SeenArea] = None
+        if laser is not None:
+            self.set_laser(laser)
         self.poses: list = []
         self.goals: list = []
         self.bumps = 0
@@ -215,7 +302,8 @@ class ExplorationRecord:
     def add_map(self, t: float, grid: np.ndarray, info_in_truth: MapInfo) -> float:
         c = coverage(grid, info_in_truth, self.truth, self.truth_info, self.start_xy,
                      reachable=self.reach)
-        self.series.append((self._rel(t), c))
+        seen = self.seen.coverage() if self.seen is not None else None
+        self.series.append((self._rel(t), c, seen))
         self.last_map = (grid, info_in_truth)
         return c
 
@@ -223,12 +311,23 @@ class ExplorationRecord:
         """(times [s], coverages) from one snapshot of the series (the monitor's timer may
         append meanwhile)."""
         series = list(self.series)
-        return [t for t, _ in series], [c for _, c in series]
+        return [s[0] for s in series], [s[1] for s in series]
 
-    def add_pose(self, t: float, x: float, y: float) -> None:
+    def seen_curve(self) -> Tuple[list, list]:
+        """(times [s], seen coverages) of the map updates since the laser was set."""
+        series = [s for s in list(self.series) if s[2] is not None]
+        return [s[0] for s in series], [s[2] for s in series]
+
+    def set_laser(self, laser: LaserGeometry) -> None:
+        """Start measuring seen coverage (poses before this call are not cast)."""
+        self.seen = SeenArea(self.truth, self.truth_info, self.reach, laser)
+
+    def add_pose(self, t: float, x: float, y: float, yaw: Optional[float] = None) -> None:
         self._rel(t)
         if not self.poses or math.hypot(x - self.poses[-1][0], y - self.poses[-1][1]) > 0.01:
             self.poses.append((float(x), float(y)))
+        if yaw is not None and self.seen is not None:
+            self.seen.add(float(x), float(y), float(yaw))
 
     def add_goal(self, x: float, y: float) -> None:
         self.goals.append((float(x), float(y)))
@@ -239,12 +338,16 @@ class ExplorationRecord:
     def summary(self) -> Dict[str, object]:
         times, covers = self.curve()
         levels = time_to_coverage(times, covers)
+        seen_t, seen_c = self.seen_curve()
+        seen_levels = time_to_coverage(seen_t, seen_c)
         return {
             "label": self.label,
             "final_coverage": covers[-1] if covers else 0.0,
             "path_m": path_length(self.poses),
             "time_s": times[-1] if times else 0.0,
             "time_to_coverage_s": {f"{k:.2f}": v for k, v in levels.items()},
+            "seen_coverage": self.seen.coverage() if self.seen is not None else None,
+            "time_to_seen_coverage_s": {f"{k:.2f}": v for k, v in seen_levels.items()},
             "goals": len(self.goals),
             "bumps": self.bumps,
             "reachable_m2": float(self.reach.sum()) * self.truth_info.resolution ** 2,
@@ -271,7 +374,9 @@ class ExplorationRecord:
         base = os.path.join(out_dir, stem or self.file_stem())
         with open(base + ".json", "w", encoding="utf-8") as f:
             times, covers = self.curve()
-            json.dump(dict(s, times_s=times, coverage=covers), f, indent=1)
+            seen_t, seen_c = self.seen_curve()
+            json.dump(dict(s, times_s=times, coverage=covers, seen_times_s=seen_t,
+                           seen=seen_c), f, indent=1)
         if self.last_map is not None:
             # Draw the explored map resampled into the truth's grid.
             grid, info = self.last_map
@@ -287,6 +392,10 @@ class ExplorationRecord:
                           self.poses, self.goals, robot_xy=self.poses[-1] if self.poses
                           else None, title=f"{self.label}: {s['path_m']:.1f} m, "
                           f"{100 * float(s['final_coverage']):.1f} %")
-        write_coverage_plot(base + "_coverage.png", {self.label: (times, covers)},
-                            title=self.label)
+        runs = {"map coverage": (times, covers)}
+        styles = {"map coverage": {"color": "tab:blue"}}
+        if seen_t:
+            runs["seen coverage"] = (seen_t, seen_c)
+            styles["seen coverage"] = {"color": "tab:green", "ls": ":"}
+        write_coverage_plot(base + "_coverage.png", runs, title=self.label, styles=styles)
         return s
