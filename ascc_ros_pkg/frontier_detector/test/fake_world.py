@@ -32,6 +32,7 @@ from std_msgs.msg import String
 
 from frontier_detector.frontiers import traversable_mask
 from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
+from frontier_detector.report import scan_truth
 
 RES = 0.05
 START = (1.0, 1.0)          # [m] robot start in the map frame
@@ -52,22 +53,6 @@ def build_world():
     t[120:140, 150:170] = OCCUPIED
     t[60:70, 200:230] = OCCUPIED
     return t, MapInfo(RES)
-
-
-def reveal(truth, known, rc, range_cells, n_rays=360):
-    """Copy truth into known along rays from rc until the first occupied cell."""
-    h, w = truth.shape
-    theta = np.linspace(0.0, 2.0 * math.pi, n_rays, endpoint=False)
-    s = np.arange(0, range_cells + 1)
-    rr = np.rint(rc[0] + np.sin(theta)[:, None] * s[None, :]).astype(int)
-    cc = np.rint(rc[1] + np.cos(theta)[:, None] * s[None, :]).astype(int)
-    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-    vals = np.where(inside, truth[rr.clip(0, h - 1), cc.clip(0, w - 1)], OCCUPIED)
-    occ = vals == OCCUPIED
-    before = np.zeros_like(occ)
-    before[:, 1:] = np.logical_or.accumulate(occ, axis=1)[:, :-1]
-    seen = inside & ~before
-    known[rr[seen], cc[seen]] = truth[rr[seen], cc[seen]]
 
 
 class FakeWorld:
@@ -93,7 +78,8 @@ class FakeWorld:
 
     def _observe(self, xy=None):
         rc = self.info.world_to_cell(*(xy or self.pose))
-        reveal(self.truth, self.known, rc, self.range_cells)
+        # all round: 361 rays from -pi to pi are the 360 directions 1 deg apart
+        scan_truth(self.truth, self.known, rc, 0.0, self.range_cells, 2.0 * math.pi, 361)
         m = OccupancyGrid()
         m.header.frame_id = "map"
         m.header.stamp = rospy.Time.now()
