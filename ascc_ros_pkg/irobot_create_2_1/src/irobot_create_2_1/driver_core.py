@@ -22,12 +22,15 @@ class StreamClock:
     a read is taken as measured at the read time, the older ones one ``period_s`` apart
     before it:
 
-        stamp_i = max(received - (n-1-i) * period_s, previous stamp)
+        stamp_i = max(received - (n-1-i) * period_s, previous stamp, 0)
 
     so a single frame per read keeps its read time (no bias when the host keeps up) and
-    stamps never decrease. Time going back by more than ``reset_s`` (a restarted simulator
-    or bag) starts afresh. (A min-latency filter along the cadence was tried: in the
-    simulator the host's /clock jitters and it stamped the odometry 0.1 s early.)
+    stamps never decrease. They are never negative either: a backlog read just after a
+    simulated clock started (or before it, at time 0) would otherwise date frames before
+    time 0, which ROS time cannot hold. Time going back by more than ``reset_s`` (a
+    restarted simulator or bag) starts afresh. (A min-latency filter along the cadence was
+    tried: in the simulator the host's /clock jitters and it stamped the odometry 0.1 s
+    early.)
     """
 
     def __init__(self, period_s: float = protocol.STREAM_PERIOD_S, reset_s: float = 0.25):
@@ -45,7 +48,7 @@ class StreamClock:
         """Stamps of n frames that arrived together at ``received`` (oldest first)."""
         if n <= 0:
             return []
-        out = [received - (n - 1 - i) * self.period_s for i in range(n)]
+        out = [max(received - (n - 1 - i) * self.period_s, 0.0) for i in range(n)]
         last = self.last
         if last is not None and received < last - self.reset_s:
             self.resets += 1
