@@ -1,0 +1,276 @@
+#!/usr/bin/env python3
+"""Replay a recorded run through the mapper offline and score it against the ground truth.
+
+Reads a ROS bag of a simulated run (``make demo`` / ``bench_exploration.py`` record one: /scan,
+/tf, /tf_static, /ground_truth/<robot>/pose and /ground_truth/map), feeds every scan with the
+odometry from TF (odom -> base_link, interpolated at the scan's stamp) to ``SlamMapper`` (the
+node's core, the shipped ``config/gmapping.yaml`` plus ``--set`` overrides) and prints per
+filter seed:
+  * updates and CPU ms per update;
+  * pose error of the mapper's estimate against the simulator's ground truth (max / mean /
+    at the end, position [m]; max heading [deg]), in the world frame (the map frame is the
+    odometry frame at the first scan, placed in the world by the ground truth there);
+  * map accuracy (``grid.map_agreement``: known cells that agree with the truth) and the
+    share of the truth's free cells the map knows;
+  * odometry timing glitches: the heading of odom -> base_link against the ground truth at
+    the same stamp, minus its slow drift (running median over 5 s). Wheel odometry drifts
+    slowly; a glitch of several degrees that comes and goes means odometry stamped at the
+    wrong time while the robot turned (a driver starved of CPU reads a backlog late).
+
+The online mapper sees the same data but has to keep up with the clock: it drops scans whose
+TF arrives more than ``tf_wait_s`` late. ``--drop-late-s`` emulates that from the bag's receive
+times. So a map that is bad online and good in the replay points at the load, not at the
+filter.
+
+    python3 scripts/replay_mapper.py RUN.bag [--seeds 0 1] [--set lskip=0] [--drop-late-s 0.5]
+        [--out DIR]  (writes the replayed maps as PGM)
+"""
+import argparse
+import math
+import os
+import sys
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the node runs
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "src"))
+
+from ascc_navigation import mapper as M  # noqa: E402
+from ascc_navigation.grid import (  # noqa: E402
+    FREE,
+    UNKNOWN,
+    GridInfo,
+    grid_from_msg_data,
+    map_agreement,
+)
+from ascc_navigation.laser import LaserMount  # noqa: E402
+from ascc_navigation.pose2d import (  # noqa: E402
+    compose,
+    inverse,
+    normalize_angle,
+    yaw_from_quaternion,
+)
+
+CONFIG = os.path.join(HERE, "..", "config", "gmapping.yaml")
+GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading drift
+
+
+def load_params(path):
+    with open(path) as f:
+        values = yaml.safe_load(f)
+    known = {name for name, _, _, _ in M.PARAMETERS}
+    return {k: v for k, v in values.items() if k in known}
+
+
+def _yaw(q):
+    return yaw_from_quaternion(q.x, q.y, q.z, q.w)
+
+
+class RunBag:
+    """What the replay needs from a run bag, as numpy arrays (times in seconds)."""
+
+    def __init__(self, path, scan_topic="/scan", odom_frame="odom", base_frame="base_link"):
+        from geometry_msgs.msg import PoseStamped
+        from nav_msgs.msg import OccupancyGrid
+        from rosbags.rosbag1 import Reader
+        from sensor_msgs.msg import LaserScan
+        from tf2_msgs.msg import TFMessage
+
+        self.scans = []      # (stamp, ranges float32)
+        self.scan_meta = None  # angle_min, angle_increment, range_min, range_max
+        odom, received, truth = [], [], []
+        self.mount = None
+        self.truth_map = None
+        with Reader(path) as reader:
+            wanted = [c for c in reader.connections
+                      if c.topic in (scan_topic, "/tf", "/tf_static", "/ground_truth/map")
+                      or (c.topic.startswith("/ground_truth/") and c.topic.endswith("/pose"))]
+            for conn, t_ns, raw in reader.messages(connections=wanted):
+                if conn.topic == scan_topic:
+                    m = LaserScan().deserialize(raw)
+                    self.scan_meta = (m.angle_min, m.angle_increment, m.range_min, m.range_max)
+                    self.scans.append((m.header.stamp.to_sec(), np.asarray(m.ranges, np.float32)))
+                    self.laser_frame = m.header.frame_id
+                elif conn.topic in ("/tf", "/tf_static"):
+                    for tr in TFMessage().deserialize(raw).transforms:
+                        p = tr.transform.translation
+                        if tr.header.frame_id == odom_frame and tr.child_frame_id == base_frame:
+                            odom.append((tr.header.stamp.to_sec(), p.x, p.y,
+                                         _yaw(tr.transform.rotation)))
+                            received.append(t_ns * 1e-9)
+                        elif tr.header.frame_id == base_frame and self.mount is None \
+                                and "laser" in tr.child_frame_id:
+                            self.mount = LaserMount.from_transform(
+                                p.x, p.y, *(getattr(tr.transform.rotation, k) for k in "xyzw"))
+                elif conn.topic == "/ground_truth/map":
+                    m = OccupancyGrid().deserialize(raw)
+                    self.truth_map = (grid_from_msg_data(m.data, m.info.width, m.info.height),
+                                      GridInfo.from_msg_info(m.info))
+                else:
+                    m = PoseStamped().deserialize(raw)
+                    truth.append((m.header.stamp.to_sec(), m.pose.position.x, m.pose.position.y,
+                                  _yaw(m.pose.orientation)))
+        if not self.scans or not odom or self.mount is None:
+            raise SystemExit("%s: needs %s, odom -> base_link TF and a base -> laser TF"
+                             % (path, scan_topic))
+        order = np.argsort(np.asarray(odom)[:, 0], kind="stable")
+        self.odom = np.asarray(odom)[order]
+        self.odom_received = np.asarray(received)[order]
+        self.truth = np.asarray(truth) if truth else None
+
+    def odom_at(self, t, max_gap_s=0.5):
+        """Odometry pose (x, y, theta) interpolated at t, or None outside / across a gap."""
+        o = self.odom
+        i = int(np.searchsorted(o[:, 0], t))
+        if i <= 0 or i >= len(o) or o[i, 0] - o[i - 1, 0] > max_gap_s:
+            return None
+        a, b = o[i - 1], o[i]
+        f = (t - a[0]) / max(b[0] - a[0], 1e-9)
+        return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
+                         a[3] + f * float(normalize_angle(b[3] - a[3]))])
+
+    def truth_at(self, t):
+        g = self.truth
+        i = int(np.clip(np.searchsorted(g[:, 0], t), 1, len(g) - 1))
+        a, b = g[i - 1], g[i]
+        f = float(np.clip((t - a[0]) / max(b[0] - a[0], 1e-9), 0.0, 1.0))
+        return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
+                         a[3] + f * float(normalize_angle(b[3] - a[3]))])
+
+    def tf_lateness(self):
+        """Per scan: how long after its stamp the first odometry TF at or after the stamp was
+        received [s] (inf if never)."""
+        stamps = np.array([s for s, _ in self.scans])
+        first = np.minimum.accumulate(self.odom_received[::-1])[::-1]
+        i = np.searchsorted(self.odom[:, 0], stamps)
+        late = np.full(stamps.size, np.inf)
+        ok = i < len(first)
+        late[ok] = first[i[ok]] - stamps[ok]
+        return late
+
+    def odometry_glitches(self):
+        """|heading of odometry - truth - slow drift| [deg] at every odometry sample, and the
+        time [s] each sample stands for."""
+        o, g = self.odom, self.truth
+        gyaw = np.interp(o[:, 0], g[:, 0], np.unwrap(g[:, 3]))
+        diff = np.degrees(np.unwrap(o[:, 3]) - gyaw)
+        rate = len(o) / max(o[-1, 0] - o[0, 0], 1e-9)
+        k = int(GLITCH_WINDOW_S * rate) | 1
+        windows = np.lib.stride_tricks.sliding_window_view(np.pad(diff, k // 2, mode="edge"), k)
+        slow = np.median(windows[:, :: max(1, k // 50)], axis=1)
+        return np.abs(diff - slow), np.diff(o[:, 0], append=o[-1, 0])
+
+
+def replay(run, params, seed, drop_late_s):
+    mapper = M.SlamMapper(M.config_from_parameters(params), seed=seed)
+    late = run.tf_lateness() if drop_late_s > 0 else None
+    world_from_map = None
+    errors = []
+    cpu = 0.0
+    updates = dropped = 0
+    for k, (stamp, ranges) in enumerate(run.scans):
+        if late is not None and late[k] > drop_late_s:
+            dropped += 1
+            continue
+        odom = run.odom_at(stamp)
+        if odom is None:
+            continue
+        c0 = time.process_time()
+        out = mapper.handle_scan(M.ScanInput(stamp, ranges, *run.scan_meta), odom, run.mount)
+        cpu += time.process_time() - c0
+        if out.status in (M.STARTED, M.RESET) and run.truth is not None:
+            # the map frame is the odometry frame at the first scan
+            world_from_map = compose(run.truth_at(stamp), inverse(odom))
+        if out.status == M.UPDATED:
+            updates += 1
+            if world_from_map is not None:
+                est = compose(world_from_map, mapper.robot_pose())
+                true = run.truth_at(stamp)
+                errors.append((math.hypot(est[0] - true[0], est[1] - true[1]),
+                               abs(math.degrees(float(normalize_angle(est[2] - true[2]))))))
+    grid, info = mapper.occupancy()
+    result = {"seed": seed, "updates": updates, "dropped": dropped,
+              "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info}
+    if errors:
+        e = np.asarray(errors)
+        result.update(max_err=float(e[:, 0].max()), mean_err=float(e[:, 0].mean()),
+                      end_err=float(e[-1, 0]), max_head=float(e[:, 1].max()))
+    if run.truth_map is not None and world_from_map is not None:
+        truth, tinfo = run.truth_map
+        result["acc"] = map_agreement(grid, info, truth, tinfo, world_from_map)["accuracy"]
+        result["known_free"] = known_share(grid, info, truth, tinfo, world_from_map)
+    return result
+
+
+def known_share(grid, info, truth, tinfo, world_from_map):
+    """Share of the truth's free cells whose place the map knows (free or occupied)."""
+    ty, tx = np.nonzero(truth == FREE)
+    wx, wy = tinfo.cell_to_world(tx, ty)
+    mx, my = compose(inverse(world_from_map), np.stack([wx, wy, np.zeros_like(wx)], 1))[:, :2].T
+    ix, iy = info.world_to_cell(mx, my)
+    inside = info.contains(ix, iy)
+    known = np.zeros(tx.size, bool)
+    known[inside] = grid[iy[inside], ix[inside]] != UNKNOWN
+    return float(known.mean()) if known.size else float("nan")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("bag")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0], help="filter seeds")
+    ap.add_argument("--config", default=CONFIG)
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="override a parameter of the config (gmapping name), repeatable")
+    ap.add_argument("--drop-late-s", type=float, default=0.0,
+                    help="skip scans whose odometry TF was received later than this after "
+                         "the scan's stamp, as the online node does (its tf_wait_s); 0: off")
+    ap.add_argument("--out", default="", help="write each replayed map here as PGM")
+    args = ap.parse_args()
+    cv2.setNumThreads(1)
+    params = load_params(args.config)
+    known = {name for name, _, _, _ in M.PARAMETERS}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        if name not in known:
+            ap.error("unknown parameter %r (known: %s)" % (name, " ".join(sorted(known))))
+        params[name] = yaml.safe_load(value)
+    t0 = time.perf_counter()
+    run = RunBag(args.bag)
+    print("%s: %d scans, %d odometry TFs, read in %.0f s; overrides: %s"
+          % (args.bag, len(run.scans), len(run.odom), time.perf_counter() - t0,
+             " ".join(args.set) or "none"))
+    if run.truth is not None:
+        glitch, dur = run.odometry_glitches()
+        print("odometry timing glitches (heading vs truth minus drift): p99 %.1f deg, max %.1f "
+              "deg; time above 5 deg %.1f s, above 10 deg %.1f s (of %.0f s)"
+              % (np.percentile(glitch, 99), glitch.max(), dur[glitch > 5].sum(),
+                 dur[glitch > 10].sum(), run.odom[-1, 0] - run.odom[0, 0]))
+    late = run.tf_lateness()
+    print("odometry TF received after the scan's stamp: p50 %.2f s, p99 %.2f s; %.1f %% of "
+          "scans later than 0.5 s" % (np.median(late), np.percentile(late, 99),
+                                      100.0 * np.mean(late > 0.5)))
+    print("%4s %7s %7s %6s %8s %8s %8s %8s %8s %10s" % (
+        "seed", "updates", "dropped", "ms", "max_err", "mean_err", "end_err", "max_head",
+        "accuracy", "known_free"))
+    for seed in args.seeds:
+        r = replay(run, params, seed, args.drop_late_s)
+        print("%4d %7d %7d %6.1f %7.2fm %7.2fm %7.2fm %7.1fd %7.2f%% %9.2f%%" % (
+            seed, r["updates"], r["dropped"], r["ms"], r.get("max_err", math.nan),
+            r.get("mean_err", math.nan), r.get("end_err", math.nan),
+            r.get("max_head", math.nan), 100 * r.get("acc", math.nan),
+            100 * r.get("known_free", math.nan)))
+        sys.stdout.flush()
+        if args.out:
+            os.makedirs(args.out, exist_ok=True)
+            g = r["grid"][::-1]
+            img = np.where(g == FREE, 254, np.where(g == UNKNOWN, 205, 0)).astype(np.uint8)
+            cv2.imwrite(os.path.join(args.out, "replay_seed%d.pgm" % seed), img)
+
+
+if __name__ == "__main__":
+    main()
