@@ -212,6 +212,39 @@ def test_scan_matching_corrects_an_odometry_error():
     assert math.hypot(err[0], err[1]) < 0.015 and abs(err[2]) < math.radians(0.5)
 
 
+@pytest.mark.parametrize("recover_score", [0.0, 0.7])
+def test_wide_heading_search_recovers_a_turn_the_odometry_missed(recover_score):
+    # The robot spun 25 degrees more than the odometry says (odometry stamped late while it
+    # turned): far outside the hill climber's reach, so only the wide search finds it.
+    world = S.office_world()
+    true0 = np.array([4.0, 1.8, 0.1])
+    true1 = np.array([4.0, 1.8, 0.1 + math.radians(60.0)])
+    said = np.array([4.0, 1.8, 0.1 + math.radians(35.0)])
+    cfg = R.RbpfConfig(particles=4, xmin=0, ymin=0, xmax=14, ymax=10,
+                       srr=0.0, srt=0.0, str=0.0, stt=0.0, recover_score=recover_score)
+    slam = R.RbpfSlam(cfg, seed=0)
+    kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
+    slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+    stats = slam.update(P.relative(true0, said), _prepare(_room_scan(true1, world=world), **kw))
+    err = slam.best_pose - true1
+    recovered = math.hypot(err[0], err[1]) < 0.03 and abs(err[2]) < math.radians(0.5)
+    assert recovered == (recover_score > 0.0)
+    assert stats.recovered == (4 if recover_score > 0.0 else 0)
+
+
+def test_wide_heading_search_leaves_good_matches_alone():
+    # The ordinary case: odometry a little off; every particle matches well, none is moved.
+    world = S.office_world()
+    true0 = np.array([4.0, 1.8, 0.1])
+    true1 = np.array([4.3, 1.85, 0.12])
+    cfg = R.RbpfConfig(particles=4, xmin=0, ymin=0, xmax=14, ymax=10)
+    slam = R.RbpfSlam(cfg, seed=0)
+    kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
+    slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+    stats = slam.update(P.relative(true0, true1), _prepare(_room_scan(true1, world=world), **kw))
+    assert stats.recovered == 0
+
+
 def test_motion_prior_keeps_pose_in_an_unconstrained_direction():
     # A featureless corridor along x: the scan cannot tell x, so the prior must hold it.
     info = G.GridInfo.from_bounds(0.05, 0.0, 0.0, 40.0, 3.0)

@@ -75,6 +75,13 @@ PARAMETERS: List[Tuple[str, str, type, str]] = [
     ("motion_prior", "rbpf.motion_prior", float, "matcher pull to the sampled pose (not gmapping)"),
     ("new_area_margin", "rbpf.new_area_margin", float,
      "beams beyond maxUrange - motion - this [m] are not matched (not gmapping)"),
+    ("recover_score", "rbpf.recover_score", float,
+     "matched score (fraction of the beams) below which a wide heading search runs; 0 off "
+     "(not gmapping)"),
+    ("recover_angle", "rbpf.recover_angle", float, "wide heading search +- this [rad]"),
+    ("recover_step", "rbpf.recover_step", float, "wide heading search step [rad]"),
+    ("recover_gain", "rbpf.recover_gain", float,
+     "the wide search's pose is kept if it scores this much better (fraction of the beams)"),
     ("odom_jump_m", "odom_jump_m", float, "odometry jump [m] treated as a reset (not gmapping)"),
     ("odom_jump_speed_mps", "odom_jump_speed_mps", float,
      "a longer step is still motion if slower than this [m/s] (not gmapping)"),

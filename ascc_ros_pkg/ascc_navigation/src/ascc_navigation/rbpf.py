@@ -86,6 +86,17 @@ class RbpfConfig:
     # matched. They reach beyond what the previous scan could see, i.e. beyond the mapped part
     # of a wall, and would pull the pose back onto it: corridors would come out short.
     new_area_margin: float = 0.1    # [m]
+    # Not in gmapping: re-localisation of a particle whose matched scan fits its map badly
+    # (fewer than recover_score of the beams, as a fraction of the perfect score): odometry
+    # that turned by an unmodelled amount (a wheel slip, odometry stamped late while the
+    # robot spun) leaves the hill climber in a wrong local optimum, and the map registered
+    # there is bent for good. Headings within +-recover_angle in recover_step steps are
+    # scored, the best is refined by hill climbing without the motion prior, and it is kept
+    # if it scores at least recover_gain (fraction of the beams) better. 0 disables it.
+    recover_score: float = 0.7      # [fraction of the perfect match score]
+    recover_angle: float = 0.7      # [rad]
+    recover_step: float = 0.035     # [rad]
+    recover_gain: float = 0.1       # [fraction of the perfect match score]
 
     def validate(self) -> None:
         if self.particles < 1:
@@ -97,6 +108,10 @@ class RbpfConfig:
             raise ValueError("xmin..xmax and ymin..ymax must be non-empty ranges")
         if not 0.0 <= self.occ_thresh < 1.0:
             raise ValueError("occ_thresh must be in [0, 1)")
+        if not (0.0 <= self.recover_score <= 1.0 and self.recover_angle >= 0.0
+                and self.recover_step > 0.0 and self.recover_gain >= 0.0):
+            raise ValueError("recover_score must be in [0, 1], recover_angle and recover_gain "
+                             ">= 0, recover_step > 0")
 
     @property
     def match_radius(self) -> float:
@@ -114,6 +129,7 @@ class UpdateStats:
     best: int = 0              # index of the best particle after the update
     mean_score: float = 0.0    # mean match score over particles [beams]
     matched: int = 0           # particles whose matched pose was accepted
+    recovered: int = 0         # particles moved by the wide heading search
     grown: bool = False        # the map grew
 
 
@@ -450,6 +466,8 @@ class RbpfSlam:
             inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
                                + [max(s_th, cfg.prior_min_theta) ** -2])
             matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var)
+            if cfg.recover_score > 0.0:
+                stats.recovered = self._recover(matched, score, pts)
             accept = score >= cfg.minimum_score
             self.poses[accept] = matched[accept]
             stats.matched = int(accept.sum())
@@ -486,6 +504,38 @@ class RbpfSlam:
         u, v = self.maps._to_cells(self.poses, pts)
         margin = int(math.ceil((self.cfg.search_margin + self.cfg.match_radius) / self.cfg.delta))
         return _LikelihoodFields(self.maps, self.maps._window(u, v, margin), self.cfg, self._table)
+
+    def _recover(self, matched: np.ndarray, score: np.ndarray, pts: np.ndarray) -> int:
+        """Wide heading search for the particles whose matched score is below
+        recover_score * beams (see RbpfConfig); updates ``matched`` and ``score`` in place
+        and returns how many particles it moved."""
+        cfg = self.cfg
+        beams = pts.shape[0]
+        weak = np.nonzero(score < cfg.recover_score * beams)[0]
+        if weak.size == 0 or cfg.recover_angle <= 0.0:
+            return 0
+        # A window that holds the scan in any heading: maxUrange around the weak particles.
+        reach = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) + cfg.search_margin
+        u, v = self.maps._to_cells(matched[weak], np.zeros((1, 2)))
+        margin = int(math.ceil((reach + cfg.match_radius) / cfg.delta))
+        fields = _LikelihoodFields(self.maps, self.maps._window(u, v, margin), cfg, self._table)
+        k = int(cfg.recover_angle / cfg.recover_step)
+        offsets = cfg.recover_step * np.arange(-k, k + 1)
+        cand = np.repeat(matched[weak, None, :], offsets.size, axis=1)
+        cand[..., 2] += offsets
+        sc = fields.match_score(fields.distances(cand, weak, pts), cfg.sigma)
+        best = np.argmax(sc, axis=1)
+        # refine every weak particle from its best heading, without the motion prior
+        start = self.poses
+        self.poses = matched.copy()
+        self.poses[weak] = cand[np.arange(weak.size), best]
+        refined, refined_score = self._hill_climb(fields, pts, np.zeros(3))
+        self.poses = start
+        better = refined_score[weak] >= score[weak] + cfg.recover_gain * beams
+        moved = weak[better]
+        matched[moved] = refined[moved]
+        score[moved] = refined_score[moved]
+        return int(moved.size)
 
     def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray,
                     prior: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
