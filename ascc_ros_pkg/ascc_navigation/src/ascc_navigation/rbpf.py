@@ -465,7 +465,8 @@ class RbpfSlam:
             s_xy, s_th = motion_noise(odom_delta, cfg)
             inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
                                + [max(s_th, cfg.prior_min_theta) ** -2])
-            matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var)
+            matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var,
+                                              self.poses, np.arange(cfg.particles))
             if cfg.recover_score > 0.0:
                 stats.recovered = self._recover(matched, score, pts)
             accept = score >= cfg.minimum_score
@@ -526,29 +527,26 @@ class RbpfSlam:
         sc = fields.match_score(fields.distances(cand, weak, pts), cfg.sigma)
         best = np.argmax(sc, axis=1)
         # refine every weak particle from its best heading, without the motion prior
-        start = self.poses
-        self.poses = matched.copy()
-        self.poses[weak] = cand[np.arange(weak.size), best]
-        refined, refined_score = self._hill_climb(fields, pts, np.zeros(3))
-        self.poses = start
-        better = refined_score[weak] >= score[weak] + cfg.recover_gain * beams
+        refined, refined_score = self._hill_climb(fields, pts, np.zeros(3),
+                                                  cand[np.arange(weak.size), best], weak)
+        better = refined_score >= score[weak] + cfg.recover_gain * beams
         moved = weak[better]
-        matched[moved] = refined[moved]
-        score[moved] = refined_score[moved]
+        matched[moved] = refined[better]
+        score[moved] = refined_score[better]
         return int(moved.size)
 
-    def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray,
-                    prior: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-        """gmapping-style greedy search, all particles at once: try the six moves around the
-        current pose; take the best if it improves the objective, else halve that particle's
-        steps; stop a particle after ``iterations`` halvings. Objective: match score minus
+    def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray, prior: np.ndarray,
+                    start: np.ndarray, particles: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """gmapping-style greedy search, all given poses at once: try the six moves around the
+        current pose; take the best if it improves the objective, else halve that pose's
+        steps; stop a pose after ``iterations`` halvings. Pose i starts at start[i] in the map
+        of particle particles[i]. Objective: match score minus
         sum_k prior[k] * (pose_k - start_k)^2. Returns the poses and their match scores."""
         cfg = self.cfg
-        n = self.poses.shape[0]
-        start = self.poses.copy()
+        n = start.shape[0]
         pose = start.copy()
         everyone = np.arange(n)
-        score = fields.match_score(fields.distances(pose[:, None, :], everyone, pts),
+        score = fields.match_score(fields.distances(pose[:, None, :], particles, pts),
                                    cfg.sigma)[:, 0]
         best = score.copy()
         step = np.ones(n)
@@ -559,7 +557,7 @@ class RbpfSlam:
             if active.size == 0:
                 break
             cand = pose[active, None, :] + _MOVES[None, :, :] * (step[active, None, None] * unit)
-            sc = self._candidate_scores(fields, cand, active, pts)
+            sc = self._candidate_scores(fields, cand, particles[active], pts)
             obj = sc - ((cand - start[active, None, :]) ** 2 * prior).sum(axis=-1)
             j = np.argmax(obj, axis=1)
             rows = np.arange(active.size)
