@@ -66,6 +66,25 @@ def load_params(path):
     return {k: v for k, v in values.items() if k in known}
 
 
+def add_parameter_arguments(ap):
+    """--config and --set (shared with replay_mapper.py)."""
+    ap.add_argument("--config", default=CONFIG)
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="override a parameter of the config (gmapping name), repeatable")
+
+
+def parameters_from_arguments(ap, args):
+    """The mapper parameters of --config with the --set overrides applied."""
+    params = load_params(args.config)
+    known = {name for name, _, _, _ in M.PARAMETERS}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        if name not in known:
+            ap.error("unknown parameter %r (known: %s)" % (name, " ".join(sorted(known))))
+        params[name] = yaml.safe_load(value)
+    return params
+
+
 class SyntheticWorld:
     name = "synthetic"
 
@@ -180,20 +199,12 @@ def main():
     ap.add_argument("--particles", type=int, default=None, help="override the config")
     ap.add_argument("--odometry", choices=("sim", "harsh"), default="sim",
                     help="odometry error model (see odometry())")
-    ap.add_argument("--config", default=CONFIG)
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                    help="override a parameter of the config (gmapping name), repeatable")
+    add_parameter_arguments(ap)
     args = ap.parse_args()
     cv2.setNumThreads(1)
-    params = load_params(args.config)
+    params = parameters_from_arguments(ap, args)
     if args.particles:
         params["particles"] = args.particles
-    known = {name for name, _, _, _ in M.PARAMETERS}
-    for item in args.set:
-        name, _, value = item.partition("=")
-        if name not in known:
-            ap.error("unknown parameter %r (known: %s)" % (name, " ".join(sorted(known))))
-        params[name] = yaml.safe_load(value)
     print("mapper benchmark, %s odometry, parameters: %s" % (args.odometry, " ".join(
         "%s=%s" % kv for kv in sorted(params.items()))))
     header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %7s %11s %6s"

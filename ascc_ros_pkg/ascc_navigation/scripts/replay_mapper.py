@@ -35,10 +35,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the node runs
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
+
+from bench_mapper import add_parameter_arguments, parameters_from_arguments  # noqa: E402
 
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation.grid import (  # noqa: E402
@@ -56,15 +57,7 @@ from ascc_navigation.pose2d import (  # noqa: E402
     yaw_from_quaternion,
 )
 
-CONFIG = os.path.join(HERE, "..", "config", "gmapping.yaml")
 GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading drift
-
-
-def load_params(path):
-    with open(path) as f:
-        values = yaml.safe_load(f)
-    known = {name for name, _, _, _ in M.PARAMETERS}
-    return {k: v for k, v in values.items() if k in known}
 
 
 def _yaw(q):
@@ -166,15 +159,15 @@ class RunBag:
         return np.abs(diff - slow), np.diff(o[:, 0], append=o[-1, 0])
 
 
-def replay(run, params, seed, drop_late_s):
+def replay(run, params, seed, drop_late_s, late):
+    """One replay with filter ``seed``; ``late`` = run.tf_lateness() (used if drop_late_s > 0)."""
     mapper = M.SlamMapper(M.config_from_parameters(params), seed=seed)
-    late = run.tf_lateness() if drop_late_s > 0 else None
     world_from_map = None
     errors = []
     cpu = 0.0
     updates = dropped = 0
     for k, (stamp, ranges) in enumerate(run.scans):
-        if late is not None and late[k] > drop_late_s:
+        if drop_late_s > 0 and late[k] > drop_late_s:
             dropped += 1
             continue
         odom = run.odom_at(stamp)
@@ -223,22 +216,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("bag")
     ap.add_argument("--seeds", type=int, nargs="+", default=[0], help="filter seeds")
-    ap.add_argument("--config", default=CONFIG)
-    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                    help="override a parameter of the config (gmapping name), repeatable")
+    add_parameter_arguments(ap)
     ap.add_argument("--drop-late-s", type=float, default=0.0,
                     help="skip scans whose odometry TF was received later than this after "
                          "the scan's stamp, as the online node does (its tf_wait_s); 0: off")
     ap.add_argument("--out", default="", help="write each replayed map here as PGM")
     args = ap.parse_args()
     cv2.setNumThreads(1)
-    params = load_params(args.config)
-    known = {name for name, _, _, _ in M.PARAMETERS}
-    for item in args.set:
-        name, _, value = item.partition("=")
-        if name not in known:
-            ap.error("unknown parameter %r (known: %s)" % (name, " ".join(sorted(known))))
-        params[name] = yaml.safe_load(value)
+    params = parameters_from_arguments(ap, args)
     t0 = time.perf_counter()
     run = RunBag(args.bag)
     print("%s: %d scans, %d odometry TFs, read in %.0f s; overrides: %s"
@@ -258,7 +243,7 @@ def main():
         "seed", "updates", "dropped", "ms", "max_err", "mean_err", "end_err", "max_head",
         "accuracy", "known_free"))
     for seed in args.seeds:
-        r = replay(run, params, seed, args.drop_late_s)
+        r = replay(run, params, seed, args.drop_late_s, late)
         print("%4d %7d %7d %6.1f %7.2fm %7.2fm %7.2fm %7.1fd %7.2f%% %9.2f%%" % (
             seed, r["updates"], r["dropped"], r["ms"], r.get("max_err", math.nan),
             r.get("mean_err", math.nan), r.get("end_err", math.nan),
