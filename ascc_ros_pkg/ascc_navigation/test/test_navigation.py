@@ -175,6 +175,45 @@ def test_blocked_twice_without_rotation_aborts(office):
     assert not any("rotation" in s.reason for s in steps)
 
 
+def _cruising(office):
+    """A navigator driving at full speed along a straight corridor of the office."""
+    navigator = nav.Navigator()
+    navigator.set_map(*office)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    _, pose, steps = _run(navigator, (2.0, 2.0, 0.0), seconds=3.0)
+    assert steps[-1].v == pytest.approx(ctl.ControllerParams().max_vel_x, abs=0.01)
+    return navigator, pose, len(steps) * DT
+
+
+def test_cycle_after_a_stall_starts_from_rest(office):
+    """A control cycle later than the base's watchdog (the robot was stopped meanwhile)
+    accelerates from zero; a punctual one continues at speed."""
+    acc = ctl.ControllerParams().acc_lim_x
+    navigator, pose, t = _cruising(office)
+    assert navigator.step(t + DT, pose, None, DT).v == pytest.approx(0.3, abs=0.01)
+    navigator, pose, t = _cruising(office)
+    late = navigator.step(t + navigator.params.base_cmd_timeout + 0.1, pose, None, DT)
+    assert late.status == nav.ACTIVE and 0.0 < late.v <= acc * DT + 1e-9
+
+
+def test_late_command_is_dropped_and_the_controller_restarts(office):
+    navigator, pose, t = _cruising(office)
+    limit = navigator.max_command_latency()
+    assert limit == pytest.approx(ctl.ControllerParams().obstacle_horizon
+                                  - nav.NavParams().base_cmd_timeout)
+    assert not navigator.drop_late_command(0.9 * limit)
+    assert navigator.step(t, pose, None, DT).v == pytest.approx(0.3, abs=0.01)  # still at speed
+    assert navigator.drop_late_command(1.1 * limit)
+    after = navigator.step(t + DT, pose, None, DT)
+    assert after.status == nav.ACTIVE and 0.0 < after.v <= ctl.ControllerParams().acc_lim_x * DT
+
+
+def test_base_cmd_timeout_from_move_base_names():
+    tree = {"stand_in": {"base_cmd_timeout_s": 0.3}}
+    _, _, params = nav.params_from_move_base(nav.nested_getter(tree))
+    assert params.base_cmd_timeout == 0.3
+
+
 # -- planning off the control loop (executor) -------------------------------------------
 class _Deferred:
     """An executor whose jobs run only when the test says so (a slow planner thread)."""

@@ -72,6 +72,7 @@ class NavParams:
     progress_reset_distance: float = 0.5  # [m] of travel that resets the recovery stage
     rotation_speed: float = 0.8  # [rad/s] of the clearing rotation
     replan_retry_period: float = 1.0  # [s] between attempts while no plan is found
+    base_cmd_timeout: float = 0.5  # [s] the base's command watchdog (driver ~cmd_timeout_s)
 
 
 @dataclass
@@ -122,6 +123,7 @@ class Navigator:
         # the executor's future of the plan being made for the current goal (None: none)
         self.job = None
         self.bridging = False  # following the replaced goal's path until the first plan
+        self.last_step_time: Optional[float] = None  # [s] of the previous control cycle
         self._reset_goal_state()
 
     def _reset_goal_state(self) -> None:
@@ -167,6 +169,23 @@ class Navigator:
         self.bridging = False
         self.follower.reset()
         self._reset_goal_state()
+
+    def max_command_latency(self) -> float:
+        """[s] the longest a command may take from its inputs (pose, scan) to being sent.
+
+        Its arc was checked against the laser for ``obstacle_horizon`` s from the inputs'
+        time; once sent, the base may drive it for up to ``base_cmd_timeout`` s before its
+        watchdog stops the robot. So it is safe only if sent within the difference."""
+        return self.follower.params.obstacle_horizon - self.params.base_cmd_timeout
+
+    def drop_late_command(self, latency: float) -> bool:
+        """True if a command whose inputs are ``latency`` s old must not be sent (more than
+        ``max_command_latency``, e.g. on a CPU-starved machine); the controller then
+        starts from rest and the caller stops the robot instead."""
+        if latency <= self.max_command_latency():
+            return False
+        self.follower.reset()
+        return True
 
     # -- helpers --------------------------------------------------------------------
     def _abort(self, reason: str) -> Step:
@@ -222,7 +241,15 @@ class Navigator:
     def step(self, now: float, pose: Sequence[float], obstacles: Optional[np.ndarray],
              dt: float) -> Step:
         """One control cycle. ``pose`` (x, y, yaw) in the map frame, ``obstacles`` (K, 2)
-        laser points in the base frame, ``dt`` [s] since the previous cycle."""
+        laser points in the base frame, ``dt`` [s] since the previous cycle.
+
+        A cycle more than ``base_cmd_timeout`` after the previous one starts the controller
+        from rest: the base's watchdog has stopped the robot meanwhile, so the acceleration
+        limits count from zero, not from the last command."""
+        gap = None if self.last_step_time is None else now - self.last_step_time
+        self.last_step_time = now
+        if gap is not None and gap > self.params.base_cmd_timeout:
+            self.follower.reset()
         if self.status != ACTIVE or self.goal is None:
             self.follower.reset()
             return Step(0.0, 0.0, self.status)
@@ -368,6 +395,7 @@ _MOVE_BASE_NAMES = (
     ("nav", "clearing_rotation_allowed", "clearing_rotation_allowed"),
     ("nav", "obstacle_range", "global_costmap/obstacle_layer/obstacle_range"),
     ("nav", "rotation_speed", "stand_in/rotation_speed"),
+    ("nav", "base_cmd_timeout", "stand_in/base_cmd_timeout_s"),
     ("planner", "allow_unknown", "NavfnROS/allow_unknown"),
     ("planner", "default_tolerance", "NavfnROS/default_tolerance"),
     ("planner", "robot_radius", "global_costmap/robot_radius"),
