@@ -6,7 +6,6 @@ The test owns the world: it publishes /clock, TF odom -> base_link (robot standi
 on the map from a background thread. Waits are on conditions with wall-clock timeouts.
 """
 import math
-import os
 import sys
 import threading
 import time
@@ -14,7 +13,6 @@ import unittest
 
 import actionlib
 import numpy as np
-import rospkg
 import rospy
 import rostest
 import tf2_ros
@@ -29,9 +27,7 @@ from std_srvs.srv import Empty
 from ascc_navigation import synthetic as syn
 from ascc_navigation.grid import OCCUPIED, grid_to_msg_data
 from ascc_navigation.laser import LaserMount
-
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("ascc_sim"), "test"))
-from sim_wait import Latest, wait_for  # noqa: E402
+from ascc_testing.waits import Latest, wait_for
 
 POSE = (2.0, 2.0, 0.3)  # true robot pose in the map; odom starts there
 MOUNT = LaserMount(0.1, 0.0, 0.0)

@@ -9,13 +9,11 @@ published, and TF map -> base_link matches the true pose. Waits are on condition
 wall-clock timeouts, never fixed sleeps.
 """
 import math
-import os
 import sys
 import time
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 import tf2_ros
@@ -27,10 +25,7 @@ from std_msgs.msg import Float64
 
 from ascc_navigation.grid import GridInfo, grid_from_msg_data, map_agreement
 from ascc_navigation.pose2d import compose, inverse, normalize_angle, yaw_from_quaternion
-
-# The simulator's rostest helpers (condition waits with timeouts, newest-message holder).
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("ascc_sim"), "test"))
-from sim_wait import Latest, pose_of, wait_for  # noqa: E402
+from ascc_testing.waits import Latest, pose_of, wait_for
 
 
 class MapperTest(unittest.TestCase):

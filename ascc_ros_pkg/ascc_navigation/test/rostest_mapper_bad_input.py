@@ -8,13 +8,11 @@ drives on, then makes the clock jump back (a bag loop) and drives the same stret
 The node must keep publishing entropy and, after the jump, a fresh map. Waits are on
 conditions with wall-clock timeouts.
 """
-import os
 import sys
 import time
 import unittest
 
 import numpy as np
-import rospkg
 import rospy
 import rostest
 import tf2_ros
@@ -28,9 +26,7 @@ from ascc_navigation import synthetic as S
 from ascc_navigation.grid import OCCUPIED
 from ascc_navigation.laser import LaserMount
 from ascc_navigation.pose2d import compose, quaternion_from_yaw
-
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("ascc_sim"), "test"))
-from sim_wait import Latest, wait_for  # noqa: E402
+from ascc_testing.waits import Latest, wait_for
 
 WORLD_START = np.array([2.0, 2.0, 0.0])  # odom origin in the synthetic office
 MOUNT = LaserMount(0.05, 0.0, 0.0)

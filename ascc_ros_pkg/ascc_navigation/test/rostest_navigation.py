@@ -13,7 +13,6 @@ Bad scans and clock jumps are tested without the simulator (rostest_bad_input.py
 Waits are on conditions with wall-clock timeouts, never fixed sleeps.
 """
 import math
-import os
 import sys
 import time
 import unittest
@@ -21,7 +20,6 @@ import unittest
 import actionlib
 import cv2
 import numpy as np
-import rospkg
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
@@ -31,10 +29,7 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 
 from ascc_navigation.grid import OCCUPIED, GridInfo, grid_from_msg_data
 from ascc_navigation.pose2d import quaternion_from_yaw
-
-# The simulator's rostest helpers (condition waits with timeouts, newest-message holder).
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path("ascc_sim"), "test"))
-from sim_wait import Latest, pose_of, wait_for  # noqa: E402
+from ascc_testing.waits import Latest, pose_of, wait_for
 
 ROBOT_RADIUS_M = 0.165  # the simulated Create (ascc_sim/config/asccbot.yaml)
 

@@ -9,8 +9,8 @@ import rospy
 import rostest
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
-from sim_wait import Latest, pose_of, wait_for
 
+from ascc_testing.waits import Latest, pose_of, wait_for
 from irobot_create_2_1.msg import SensorPacket
 
 ROBOT_RADIUS_M = 0.165

@@ -15,7 +15,8 @@ import tf2_ros
 import yaml
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
-from sim_wait import Latest, compose, pose_of, wait_for, yaw_of
+
+from ascc_testing.waits import Latest, compose, pose_of, wait_for, yaw_of
 
 N_SCANS = 20
 

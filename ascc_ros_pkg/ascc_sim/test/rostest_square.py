@@ -10,7 +10,8 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
-from sim_wait import Latest, compose, pose_of, wait_for, wrap
+
+from ascc_testing.waits import Latest, compose, pose_of, wait_for, wrap
 
 WHEEL_BASE_M = 0.258
 

@@ -12,8 +12,8 @@ import tf2_ros
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
-from sim_wait import Latest, compose, pose_of, wait_for, wrap, yaw_of
 
+from ascc_testing.waits import Latest, compose, pose_of, wait_for, wrap, yaw_of
 from irobot_create_2_1.msg import SensorPacket
 
 ROBOTS = ("robotA", "robotB", "robotC")

@@ -23,7 +23,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from condition_wait import ConditionWaitMixin  # noqa: E402  (test helper next to this file)
+from ascc_testing.waits import ConditionWaitMixin  # noqa: E402
 
 NODE = "frontier_explorer"
 

@@ -23,8 +23,8 @@ from visualization_msgs.msg import MarkerArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fake_world  # noqa: E402  (test helper next to this file)
-from condition_wait import ConditionWaitMixin  # noqa: E402
 
+from ascc_testing.waits import ConditionWaitMixin  # noqa: E402
 from frontier_detector.report import coverage  # noqa: E402
 from frontier_detector.rosmsg import grid_from_msg  # noqa: E402
 

@@ -1,7 +1,8 @@
-"""Helpers for the rostests of ascc_sim (imported by test/rostest_*.py; not a test).
+"""Waiting helpers for the stack's rostests: conditions with timeouts, never fixed sleeps.
 
-Waits are on conditions with wall-clock timeouts (the simulated clock may run faster or
-stall), never fixed sleeps.
+``wait_for`` and ``Latest`` time out in wall-clock time (the simulated clock may run
+faster or stall); ``ConditionWaitMixin`` waits on a test case's ``threading.Condition``
+with a timeout in ROS time.
 """
 import math
 import threading
@@ -65,3 +66,20 @@ def compose(a, b):
     """Pose b expressed in frame a -> pose in a's parent frame (2D)."""
     c, s = math.cos(a[2]), math.sin(a[2])
     return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2])
+
+
+class ConditionWaitMixin:
+    """Mixin for unittest.TestCase; expects ``self.cond`` (threading.Condition), which the
+    test's subscriber callbacks notify, and optionally ``self.statuses`` (quoted in a
+    timeout). ``wait_for`` re-checks the predicate on every notification and at least every
+    0.5 s, with the timeout in ROS time."""
+
+    def wait_for(self, predicate, timeout_s, what):
+        deadline = rospy.get_time() + timeout_s
+        with self.cond:
+            while not predicate():
+                left = deadline - rospy.get_time()
+                if left <= 0 or rospy.is_shutdown():
+                    self.fail("timed out waiting for %s (statuses %s)"
+                              % (what, getattr(self, "statuses", None)))
+                self.cond.wait(min(left, 0.5))
