@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Every test of the stack: lint gates, pure-code tests (pytest, no master), then every
-# rostest launch file (each brings up its own master through rostest), one at a time.
-# Prints a closing line "N passed, N failed" over all of them; exits non-zero on failure.
+# rostest launch file (each brings up its own master through rostest), one at a time,
+# judged by rostest's own JUnit results (scripts/run_rostests.py).
+# Prints "lint ...; pytest ...; rostest N files, C cases passed, F failed", then a closing
+# line "N passed, N failed" over all of them; exits non-zero on any failure.
 #   --lint-only     only ruff, vermin (Python 3.8 compatibility) and catkin_lint
 #   --no-rostest    skip the rostest part
-#   ROSTEST_FILTER=regex   run only the .test files whose path matches
+#   ROSTEST_FILTER=regex   run only the .test files whose path matches (none: a failure)
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -22,21 +24,24 @@ for a in "$@"; do
 done
 
 passed=0; failed=0; failures=()
+lint_pass=0; lint_fail=0
 step() { printf '\n==== %s ====\n' "$*"; }
-record() {  # record NAME RC
-  if [ "$2" -eq 0 ]; then passed=$((passed + 1)); else failed=$((failed + 1)); failures+=("$1"); fi
+lint_gate() {  # lint_gate NAME RC
+  if [ "$2" -eq 0 ]; then lint_pass=$((lint_pass + 1)); else lint_fail=$((lint_fail + 1)); failures+=("$1"); fi
 }
 
 step "ruff"
-ruff check . ; record ruff $?
+ruff check . ; lint_gate ruff $?
 step "vermin (code must run on Python 3.8)"
 vermin -q -t=3.8- --no-tips --eval-annotations --backport dataclasses --violations \
   $(git ls-files '*.py' | tr '\n' ' ') $(grep -rl '^#!/usr/bin/env python3' ascc_ros_pkg scripts test 2>/dev/null | grep -v '\.py$' | tr '\n' ' ')
-record vermin $?
+lint_gate vermin $?
 step "catkin_lint"
-catkin_lint -W2 --strict -q ascc_ros_pkg ; record catkin_lint $?
+catkin_lint -W2 --strict -q ascc_ros_pkg ; lint_gate catkin_lint $?
+passed=$((passed + lint_pass)); failed=$((failed + lint_fail))
+summary=("lint $lint_pass passed, $lint_fail failed")
 if [ "$lint_only" -eq 1 ]; then
-  printf '\nlint: %d passed, %d failed\n' "$passed" "$failed"; [ "$failed" -eq 0 ]; exit $?
+  printf '\n%s\n%d passed, %d failed\n' "${summary[0]}" "$passed" "$failed"; [ "$failed" -eq 0 ]; exit $?
 fi
 
 step "pytest (pure code, no ROS master)"
@@ -44,27 +49,47 @@ pytest_out="$(mktemp)"
 test_dirs=(ascc_ros_pkg); [ -d test ] && test_dirs+=(test)
 python -m pytest -q -p no:cacheprovider --import-mode=importlib "${test_dirs[@]}" 2>&1 | tee "$pytest_out"
 rc=${PIPESTATUS[0]}
-[ "$rc" -eq 5 ] && rc=0   # no tests collected is not a failure of the suite
-py_pass=$(grep -Eo '[0-9]+ passed' "$pytest_out" | tail -1 | grep -Eo '[0-9]+' || echo 0)
-py_fail=$(grep -Eo '[0-9]+ (failed|error)' "$pytest_out" | awk '{s+=$1} END {print s+0}')
+py_pass=$(tail -1 "$pytest_out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
+py_fail=$(tail -1 "$pytest_out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
 rm -f "$pytest_out"
+# rc 5 is "no tests collected": a failure here, since the test folders exist.
+if [ "$rc" -eq 5 ]; then
+  py_fail=$((py_fail + 1)); failures+=("pytest collected no tests in ${test_dirs[*]}")
+elif [ "$rc" -ne 0 ]; then
+  [ "$py_fail" -eq 0 ] && py_fail=1
+  failures+=("pytest (rc=$rc): $py_fail failed")
+fi
 passed=$((passed + py_pass)); failed=$((failed + py_fail))
-[ "$rc" -ne 0 ] && [ "$py_fail" -eq 0 ] && { failed=$((failed + 1)); failures+=("pytest rc=$rc"); }
-[ "$py_fail" -gt 0 ] && failures+=("pytest: $py_fail")
+summary+=("pytest $py_pass passed, $py_fail failed")
 
 if [ "$no_rostest" -eq 0 ]; then
-  mapfile -t tests < <(find "${test_dirs[@]}" -name '*.test' | sort | grep -E "${ROSTEST_FILTER:-.}")
-  for t in "${tests[@]}"; do
-    step "rostest $t"
-    start=$(date +%s)
-    timeout 900 rostest --text "$t"
-    rc=$?
-    echo "($t: rc=$rc, $(( $(date +%s) - start )) s)"
-    record "rostest $t" $rc
-  done
+  # Each .test runs with its own master; its verdict is read from rostest's JUnit XML
+  # (scripts/run_rostests.py), never from `rostest --text`, whose exit code is always 0.
+  results_dir="$ROOT/.ws/test_results"
+  rm -rf "$results_dir"; mkdir -p "$results_dir"
+  python scripts/run_rostests.py --results-dir "$results_dir" --summary-file "$results_dir/summary.json" \
+    --filter "${ROSTEST_FILTER:-}" "${test_dirs[@]}"
+  rc=$?
+  read -r rt_files rt_pass rt_fail rt_skip < <(python - "$results_dir/summary.json" <<'PY'
+import json, sys
+try:
+    s = json.load(open(sys.argv[1]))
+    print(s["files"], s["cases_passed"], s["cases_failed"], s["cases_skipped"])
+except (OSError, ValueError, KeyError):
+    print(0, 0, 0, 0)
+PY
+)
+  [ "$rc" -ne 0 ] && [ "$rt_fail" -eq 0 ] && rt_fail=1
+  [ "$rc" -ne 0 ] && failures+=("rostest: see the rostest results above")
+  passed=$((passed + rt_pass)); failed=$((failed + rt_fail))
+  rt_line="rostest $rt_files files, $rt_pass cases passed, $rt_fail failed"
+  [ "$rt_skip" -gt 0 ] && rt_line+=", $rt_skip skipped"
+  [ -n "${ROSTEST_FILTER:-}" ] && rt_line+=" (ROSTEST_FILTER=$ROSTEST_FILTER)"
+  summary+=("$rt_line")
 fi
 
 printf '\n==== summary ====\n'
 for f in "${failures[@]}"; do echo "FAILED: $f"; done
+printf -v line '%s; ' "${summary[@]}"; echo "${line%; }"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

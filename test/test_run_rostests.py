@@ -1,0 +1,131 @@
+"""The test runner itself: a failing, crashing, missing or overtime rostest must fail it.
+
+Plants a throw-away catkin package with one rostest file per way of failing (and one that
+passes) in a temporary folder, puts it on ROS_PACKAGE_PATH, and runs
+scripts/run_rostests.py on it with the real rostest. Needs the ROS environment
+(`source env.sh`), as `make test` provides.
+"""
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNNER = os.path.join(ROOT, "scripts", "run_rostests.py")
+
+pytestmark = pytest.mark.skipif(shutil.which("rostest") is None,
+                                reason="rostest not on PATH (source env.sh first)")
+
+PACKAGE_XML = """<?xml version="1.0"?>
+<package format="2"><name>runner_probe</name><version>0.0.0</version>
+<description>planted rostests for the runner's own test</description>
+<maintainer email="ascc-ros-pkg@example.org">ascc</maintainer><license>BSD</license>
+<buildtool_depend>catkin</buildtool_depend></package>
+"""
+
+UNITTEST = """#!/usr/bin/env python3
+import unittest
+
+import rostest
+
+
+class Probe(unittest.TestCase):
+    def test_passes(self):
+        self.assertEqual(1, 1)
+%s
+
+if __name__ == "__main__":
+    rostest.rosrun("runner_probe", "%s", Probe)
+"""
+
+SCRIPTS = {
+    "passes.py": UNITTEST % ("", "passes"),
+    "fails.py": UNITTEST % ("\n    def test_fails(self):\n        self.assertEqual(1, 2)\n",
+                            "fails"),
+    "crashes.py": "#!/usr/bin/env python3\nimport no_such_module_for_the_runner_test\n",
+    "sleeps.py": "#!/usr/bin/env python3\nimport time\n\ntime.sleep(60)\n",
+}
+
+# test file -> (test type, extra attributes)
+TESTS = {
+    "passing.test": ("passes.py", ""),
+    "failing.test": ("fails.py", ""),
+    "crashing.test": ("crashes.py", ""),
+    "missing.test": ("does_not_exist.py", ""),
+    "overtime.test": ("sleeps.py", ' time-limit="3"'),
+}
+
+
+@pytest.fixture(scope="module")
+def probe(tmp_path_factory):
+    """A planted package; returns (its test folder, environment that finds it)."""
+    root = tmp_path_factory.mktemp("pkgs")
+    test_dir = root / "runner_probe" / "test"
+    test_dir.mkdir(parents=True)
+    (root / "runner_probe" / "package.xml").write_text(PACKAGE_XML)
+    for name, text in SCRIPTS.items():
+        path = test_dir / name
+        path.write_text(text)
+        path.chmod(path.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
+    for name, (script, attrs) in TESTS.items():
+        (test_dir / name).write_text(
+            '<launch><test test-name="%s" pkg="runner_probe" type="%s"%s/></launch>\n'
+            % (name[:-5], script, attrs))
+    env = dict(os.environ)
+    env["ROS_PACKAGE_PATH"] = "%s:%s" % (root, env.get("ROS_PACKAGE_PATH", ""))
+    return test_dir, env
+
+
+def run(probe, tmp_path, *args):
+    test_dir, env = probe
+    summary = tmp_path / "summary.json"
+    proc = subprocess.run(
+        [sys.executable, RUNNER, "--summary-file", str(summary),
+         "--results-dir", str(tmp_path / "results"), *args, str(test_dir)],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        timeout=300)
+    counts = json.loads(summary.read_text()) if summary.exists() else None
+    return proc.returncode, proc.stdout, counts
+
+
+def test_every_way_of_failing_fails_the_run(probe, tmp_path):
+    rc, out, counts = run(probe, tmp_path)
+    assert rc == 1, out
+    assert counts["files"] == 5 and counts["files_failed"] == 4, out
+    # passes.py's case and fails.py's passing case; the four failures, one per file
+    assert (counts["cases_passed"], counts["cases_failed"]) == (2, 4), out
+    failed = {os.path.basename(f) for f in counts["failed_files"]}
+    assert failed == {"failing.test", "crashing.test", "missing.test", "overtime.test"}
+    assert "FAILED __main__.Probe.test_fails: 1 != 2" in out
+    assert "[crashing] did not generate test results" in out
+    assert "does not exist or is not executable" in out
+    assert "max time [3.0s]" in out
+    assert out.rstrip().splitlines()[-1] == "rostest: 5 files, 2 cases passed, 4 failed"
+
+
+def test_a_passing_selection_passes(probe, tmp_path):
+    rc, out, counts = run(probe, tmp_path, "--filter", "passing")
+    assert rc == 0, out
+    assert "selected 1 of 5 rostest files" in out
+    assert (counts["files"], counts["cases_passed"], counts["cases_failed"]) == (1, 1, 0)
+
+
+def test_an_empty_selection_fails(probe, tmp_path):
+    rc, out, counts = run(probe, tmp_path, "--filter", "matches_no_file")
+    assert rc == 1, out
+    assert "selected 0 of 5 rostest files" in out
+    assert "FAILED: no rostest file selected" in out
+    assert counts["files"] == 0
+
+
+def test_a_hung_rostest_is_killed(probe, tmp_path):
+    # The outer guard, for a fixture that hangs past every time-limit: the overtime
+    # file's 3 s limit would fire at ~3 s, the guard at 1 s kills rostest first.
+    rc, out, counts = run(probe, tmp_path, "--filter", "overtime", "--timeout-s", "1")
+    assert rc == 1, out
+    assert "killed after" in out
+    assert counts["files_failed"] == 1 and counts["cases_failed"] >= 1
