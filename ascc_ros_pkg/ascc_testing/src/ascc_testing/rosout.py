@@ -77,3 +77,29 @@ class RosoutWatcher:
                                          "records of that node: %s"
                                          % (what or filters, timeout_s, filters, seen))
                 self._cond.wait(min(left, 0.2))
+
+
+def assert_throttled(records, period_s, start_s, end_s, clock="stamp_s", what="warning"):
+    """Check that a throttled log call came, and no more often than its period promises.
+
+    ``records``: the records of one kind (e.g. ``watcher.matching(node=..., contains=...)``);
+    those whose ``clock`` value lies in [``start_s``, ``end_s``] are counted. A logger that
+    logs at most once per ``period_s`` can log at most floor((end - start) / period) + 1
+    times in that window; at least once is required. ``clock``: "stamp_s" (the record's ROS
+    time, for ``rospy.log*_throttle``, which throttles on ROS time; the window must not
+    contain a jump back of the clock) or "wall_s" (for a node throttling on the wall
+    clock; ``wall_s`` is when the record arrived, so ``start_s`` must precede what caused
+    the first record). Returns the counted records; AssertionError naming ``what``."""
+    times = sorted(getattr(r, clock) for r in records
+                   if start_s <= getattr(r, clock) <= end_s)
+    window = end_s - start_s
+    bound = int(window // period_s) + 1
+    if not times:
+        raise AssertionError("no %s in the %.2f s window (%s %.2f .. %.2f)"
+                             % (what, window, clock, start_s, end_s))
+    if len(times) > bound:
+        raise AssertionError("%d x %s in a %.2f s window, throttled to one per %.1f s allows "
+                             "at most %d (%s offsets %s)"
+                             % (len(times), what, window, period_s, bound, clock,
+                                ["%.2f" % (t - start_s) for t in times]))
+    return [r for r in records if start_s <= getattr(r, clock) <= end_s]
