@@ -54,9 +54,16 @@ def test_sends_goal_on_the_frontier_and_keeps_it():
     assert c.goals_sent == 1
     # Same map, no outcome: nothing new.
     assert c.step(1.0, corridor_map(), INFO, ROBOT, 1, True).action == ex.NONE
-    # New map where the goal is still a frontier and the robot got closer: keep it.
-    d = c.step(2.0, corridor_map(), INFO, (4.0, 1.0), 2, True)
-    assert d.action == ex.NONE and c.active_goal == d.plan.goal_xy or c.active_goal
+    first = d.goal_xy
+    # New map where the goal is still a frontier and the robot got closer, but an unknown
+    # pocket next to the robot now scores higher: the plan's best moves, the goal is kept.
+    g = corridor_map()
+    g[22:39, 90:130] = UNKNOWN
+    d = c.step(2.0, g, INFO, (4.0, 1.0), 2, True)
+    assert d.plan is not None and d.plan.goal_xy is not None          # it did re-plan
+    assert math.hypot(d.plan.goal_xy[0] - first[0], d.plan.goal_xy[1] - first[1]) > 2.0
+    assert d.action == ex.NONE and d.status == ex.EXPLORING
+    assert c.active_goal == first and c.goals_sent == 1
 
 
 def test_goal_that_is_no_longer_a_frontier_is_replaced():
@@ -71,24 +78,62 @@ def test_goal_that_is_no_longer_a_frontier_is_replaced():
     assert d.action == ex.SEND and d.goal_xy[0] > first[0] + 2.0
 
 
+def two_frontier_map():
+    """5 m x 2 m known corridor (x 5..10 m), unknown to the west and to the east."""
+    g = np.full((40, 300), UNKNOWN, np.int8)
+    g[:, 100:200] = FREE
+    g[0, 100:200] = OCCUPIED
+    g[-1, 100:200] = OCCUPIED
+    return g
+
+
+MIDDLE = (7.5, 1.0)
+
+
 def test_aborted_goal_is_blacklisted_and_not_resent():
     c = started()
-    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    d = c.step(0.0, two_frontier_map(), INFO, MIDDLE, 1, True)
+    assert d.action == ex.SEND
     c.report_outcome(ex.ABORTED)
-    d2 = c.step(1.0, corridor_map(), INFO, ROBOT, 1, True)
+    # Same map, same pose: without the blacklist the same goal would be the best again.
+    d2 = c.step(1.0, two_frontier_map(), INFO, MIDDLE, 1, True)
     assert c.blacklist == [d.goal_xy]
-    if d2.action == ex.SEND:
-        assert math.hypot(d2.goal_xy[0] - d.goal_xy[0], d2.goal_xy[1] - d.goal_xy[1]) > 0.5
+    assert d2.action == ex.SEND and d2.status == ex.EXPLORING
+    assert math.hypot(d2.goal_xy[0] - d.goal_xy[0], d2.goal_xy[1] - d.goal_xy[1]) > \
+        c.planner.blacklist_radius_m
+    assert c.goals_sent == 2
 
 
 def test_no_progress_blacklists_goal():
     c = started(progress_timeout_s=10.0, done_confirmations=1)
-    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    d = c.step(0.0, two_frontier_map(), INFO, MIDDLE, 1, True)
     # Robot does not move; the map does not change: after the timeout the goal is dropped.
-    assert c.step(5.0, corridor_map(), INFO, ROBOT, 1, True).action == ex.NONE
+    assert c.step(5.0, two_frontier_map(), INFO, MIDDLE, 1, True).action == ex.NONE
+    assert c.step(9.9, two_frontier_map(), INFO, MIDDLE, 1, True).action == ex.NONE
+    assert c.blacklist == []
+    d2 = c.step(10.5, two_frontier_map(), INFO, MIDDLE, 1, True)
+    assert c.blacklist == [d.goal_xy]
+    assert d2.action == ex.SEND and "no progress" in d2.reason
+    assert math.hypot(d2.goal_xy[0] - d.goal_xy[0], d2.goal_xy[1] - d.goal_xy[1]) > \
+        c.planner.blacklist_radius_m
+
+
+def test_no_progress_with_nothing_else_left_cancels():
+    c = started(progress_timeout_s=10.0, done_confirmations=1)
+    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
     d2 = c.step(11.0, corridor_map(), INFO, ROBOT, 1, True)
-    assert d.goal_xy in c.blacklist
-    assert d2.action in (ex.SEND, ex.CANCEL)
+    assert c.blacklist == [d.goal_xy]
+    assert d2.action == ex.CANCEL and c.active_goal is None
+
+
+def test_progress_keeps_the_goal_past_the_timeout():
+    c = started(progress_timeout_s=10.0)
+    d = c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    # The robot gets 1 m closer on each new map: never stalled, even after 3 timeouts.
+    for i, t in enumerate(range(8, 40, 8)):
+        step = c.step(float(t), corridor_map(), INFO, (2.0 + i, 1.0), 2 + i, True)
+        assert step.action == ex.NONE and step.status == ex.EXPLORING
+    assert c.blacklist == [] and c.active_goal == d.goal_xy
 
 
 def test_done_after_confirmations_and_restart():
