@@ -2,8 +2,10 @@
 """rostest: the virtual_create node on its own, talked to over its pty with pyserial.
 
 Checks the announced port, Drive Direct -> ~wheel_speeds and ~ground_truth, the test
-services (set_bump, inject_garbage, close_link with the reopen at the same path).
+services (set_bump, inject_garbage, close_link with the reopen at the same path, state,
+power_cycle).
 """
+import json
 import math
 import os
 import threading
@@ -132,6 +134,32 @@ class VirtualCreateNodeTest(unittest.TestCase):
             port2.reset_input_buffer()
             port2.write(oi.sensors(35))
             self.assertEqual(read_exactly(port2, 1), bytes([2]))
+
+    def test_d_state_and_power_cycle(self):
+        state = rospy.ServiceProxy(NODE + "/state", Trigger)
+        power_cycle = rospy.ServiceProxy(NODE + "/power_cycle", Trigger)
+        rospy.wait_for_service(NODE + "/power_cycle", 10.0)
+        wait_until(lambda: os.path.exists(self.path), 10.0, "the link")
+        with self.open_port() as port:
+            port.write(oi.leds(True, False, 7, 9) + oi.song(3, [60], [8]) + oi.play(3)
+                       + oi.stream([7]) + oi.drive_direct(50, -50))
+            wait_until(lambda: json.loads(state().message)["streaming"], 5.0, "stream on")
+            s = json.loads(state().message)
+            self.assertEqual(s["mode"], "safe")
+            self.assertEqual(s["leds"], {"play": True, "advance": False, "power_color": 7,
+                                         "power_intensity": 9})
+            self.assertEqual((s["songs"], s["songs_played"]), ({"3": [[60, 8]]}, [3]))
+            self.assertEqual(s["wheel_speeds_mps"], [0.05, -0.05])
+            self.assertEqual(s["stream_ids"], [7])
+            self.assertTrue(power_cycle().success)
+            s = json.loads(state().message)
+            self.assertEqual((s["mode"], s["streaming"], s["wheel_speeds_mps"]),
+                             ("off", False, [0.0, 0.0]))
+            port.reset_input_buffer()
+            port.write(oi.sensors(35))                       # off: only Start is heard
+            self.assertEqual(port.read(1), b"")
+            port.write(oi.start() + oi.sensors(35))
+            self.assertEqual(read_exactly(port, 1), bytes([1]))  # passive
 
 
 if __name__ == "__main__":

@@ -447,6 +447,22 @@ def test_pause_resume_and_empty_stream():
     assert collect_frames(create, 0.3, 0.005)[0] == []
 
 
+def test_power_cycle_stops_everything_until_start_and_stream_again():
+    create = started()
+    create.feed(oi.stream([7]) + oi.drive_direct(200, 200))
+    assert len(collect_frames(create, 0.3, 0.005)[0]) == 20
+    create.power_cycle()
+    assert create.mode == "off"
+    assert create.wheel_speed_cmd_mps == (0.0, 0.0)
+    assert collect_frames(create, 0.3, 0.005)[0] == []
+    create.feed(oi.safe() + oi.stream([7]) + oi.drive_direct(100, 100))  # no Start: unheard
+    assert create.mode == "off" and create.wheel_speed_cmd_mps == (0.0, 0.0)
+    assert collect_frames(create, 0.3, 0.005)[0] == []
+    create.feed(oi.start() + oi.safe() + oi.stream([7]))
+    assert create.mode == "safe"
+    assert len(collect_frames(create, 0.3, 0.005)[0]) == 20
+
+
 def test_stream_frame_never_exceeds_255_data_bytes():
     create = started()
     create.feed(bytes([oi.STREAM, 10] + [6] * 10))  # 10 x 53 bytes requested

@@ -270,6 +270,24 @@ class VirtualCreate:
         """Place the robot (does not touch the odometry accumulators)."""
         self._x, self._y, self._theta = float(x_m), float(y_m), _wrap_angle(theta_rad)
 
+    def power_cycle(self) -> None:
+        """The robot switched off and on again (power button, a brown-out): the OI is back
+        in off mode, listening only for Start; the motors stop; the sensor stream, a
+        pending wait, a playing song and half-received commands are gone. Pose, battery and
+        the sensors set by the simulator are kept, and so are stored songs and the script
+        (the spec does not say; nothing here depends on it)."""
+        self._mode = OFF
+        self._stop_motors()
+        self._rx.clear()
+        self._wait = None
+        self.stream_ids = []
+        self.streaming = False
+        self._stream_phase_s = 0.0
+        self.song_playing = False
+        self._song_time_left_s = 0.0
+        self.demo_running = False
+        self.docking_requested = False
+
     @property
     def waiting(self) -> bool:
         """True while a wait command holds the input queue."""
