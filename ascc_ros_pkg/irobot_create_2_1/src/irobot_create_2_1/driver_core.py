@@ -58,6 +58,23 @@ class StreamClock:
         return out
 
 
+class Throttle:
+    """At most one ``ready`` per ``period_s`` for each key. One key per kind of warning, so
+    a frequent warning (a controller saturating the wheels all the time) cannot hide a
+    rare one (a NaN twist). Time going back (a restarted simulator) restarts the period."""
+
+    def __init__(self, period_s: float):
+        self.period_s = period_s
+        self._last: Dict[str, float] = {}
+
+    def ready(self, key: str, now: float) -> bool:
+        last = self._last.get(key)
+        if last is None or now - last >= self.period_s or now < last:
+            self._last[key] = now
+            return True
+        return False
+
+
 class CreateDriverCore:
     def __init__(self, wheel_base_m: float = 0.258, mode: str = "safe",
                  cmd_timeout_s: float = 0.5, stop_on_bump: bool = True,
@@ -89,6 +106,7 @@ class CreateDriverCore:
         self.bump_stops = 0
         self.rejected_cmds = 0
         self.saturated_cmds = 0
+        self.warning_kind: Optional[str] = None  # "rejected"/"saturated": last set_twist
 
     # --- start-up -------------------------------------------------------------------
     def init_sequence(self) -> bytes:
@@ -129,17 +147,21 @@ class CreateDriverCore:
 
         A non-finite twist is refused and the robot is stopped (the caller clearly lost
         control of its numbers); a too-fast one is scaled down keeping the turn ratio.
+        ``warning_kind`` says which ("rejected", "saturated", None for no warning).
         """
+        self.warning_kind = None
         try:
             cmd = kinematics.twist_to_wheels(linear_m_s, angular_rad_s, self.wheel_base_m,
                                              self.max_wheel_speed_m_s)
         except ValueError as exc:
             self.rejected_cmds += 1
+            self.warning_kind = "rejected"
             self._twist, self._cmd_time = (0.0, 0.0), now
             return "cmd_vel rejected, robot stopped: %s" % exc
         self._twist, self._cmd_time = (linear_m_s, angular_rad_s), now
         if cmd.saturated:
             self.saturated_cmds += 1
+            self.warning_kind = "saturated"
             return ("cmd_vel (%.3f m/s, %.3f rad/s) exceeds the wheel limit %.3f m/s; "
                     "scaled down keeping the turn ratio"
                     % (linear_m_s, angular_rad_s, self.max_wheel_speed_m_s))
