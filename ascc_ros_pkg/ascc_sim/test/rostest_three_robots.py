@@ -48,6 +48,10 @@ class ThreeRobotsTest(unittest.TestCase):
             for parent, child in (("/odom", "/base_link"), ("/base_link", "/laser")):
                 wait_for(lambda p=r + parent, c=r + child: self.tf.can_transform(
                     p, c, rospy.Time(0)), 30.0, "TF %s -> %s" % (r + parent, r + child))
+            # sim.launch's map_to_odom defaults to false: the simulator's static TF (the
+            # laser mounts, in hand) carries no map -> <ns>/odom.
+            self.assertFalse(self.tf.can_transform("map", r + "/odom", rospy.Time(0)),
+                             "map -> %s/odom published with map_to_odom false" % r)
         published = {name for name, _ in rospy.get_published_topics()}
         for topic in ("/scan", "/odom", "/sensorPacket"):
             self.assertNotIn(topic, published)
