@@ -195,6 +195,10 @@ class SquareTest(unittest.TestCase):
                             "turn %d: the odometry's heading lag changed by %.3f deg"
                             % (i, math.degrees(change)))
             var_total += (s * s / 2) * turn_travel ** 2 + (k * k / 2) * turn_travel
+            if not self.noisy:  # wheels exactly opposite: the Create counts no distance
+                moved = math.hypot(after[1][0] - before[1][0], after[1][1] - before[1][1])
+                self.assertLess(moved, EPS, "turn %d: odom moved %.4f m on the spot"
+                                % (i, moved))
 
         # The end. Heading: the odometry lags by the unreported remainder, in [0, 1 deg)
         # (every turn is counter-clockwise), plus the 3-sigma heading error of the
