@@ -33,9 +33,9 @@ WHEEL_BASE_M = 0.258
 MM = 0.001  # the Create's distance quantum [m]
 DEG = math.radians(1.0)  # the Create's angle quantum [rad]
 EPS = 1e-6  # float arithmetic of the integrations [m, rad]
-# Odom must be from frames measured this long after the truth showed the robot at rest
-# (the driver stamps each frame with its measurement time; its /clock may jitter by
-# ~0.1 s): [s of simulated time].
+# At rest, the odom must be unchanged over this long of frames measured after the truth
+# showed the robot at rest [s of simulated time]; odom comes at 30 Hz (frames at 66 Hz);
+# even the slow end of a turn (0.1 rad/s) reports a new degree every 0.17 s.
 SETTLE_S = 0.5
 
 
@@ -69,9 +69,11 @@ class SquareTest(unittest.TestCase):
             rate.sleep()
 
     def rest(self):
-        """Stop; wait until the truth shows the robot at rest and the driver's odom comes
-        from frames measured SETTLE_S after that. Returns (odom pose in its frame, odom
-        pose in map, true pose, index of that odom message in self.odom.all)."""
+        """Stop; wait until the truth shows the robot at rest and the driver's odom has
+        not changed over SETTLE_S of frames measured after that (a driver catching up on
+        a backlog may stamp a frame later than it was measured, but a moving robot's
+        odom would change within SETTLE_S). Returns (odom pose in its frame, odom pose in
+        map, true pose, index of that odom message in self.odom.all)."""
         self.cmd.publish(Twist())
         asked = rospy.get_time()
         wait_for(lambda: self.truth.msg.header.stamp.to_sec() > asked
@@ -79,11 +81,28 @@ class SquareTest(unittest.TestCase):
                  and self.truth.msg.twist.twist.angular.z == 0.0, 60.0,
                  "the robot to stand still (ground truth)")
         still = self.truth.msg.header.stamp.to_sec()
-        wait_for(lambda: self.odom.msg.header.stamp.to_sec() > still + SETTLE_S, 60.0,
-                 "odom measured %.1f s after the robot stopped" % SETTLE_S)
-        n = len(self.odom.all) - 1
-        odom = pose_of(self.odom.all[n])
-        return odom, compose(self.start_pose, odom), pose_of(self.truth.msg), n
+        found = []
+
+        def settled():
+            msgs = self.odom.all
+            n = len(msgs) - 1
+            last = msgs[n]
+            t_last = last.header.stamp.to_sec()
+            if t_last <= still + SETTLE_S:
+                return False
+            pose = pose_of(last)
+            for m in reversed(msgs[:n]):
+                if pose_of(m) != pose:
+                    return False
+                if m.header.stamp.to_sec() <= t_last - SETTLE_S:
+                    found.append(n)
+                    return True
+            return False
+
+        wait_for(settled, 60.0, "odom unchanged for %.1f s after the robot stopped"
+                 % SETTLE_S)
+        odom = pose_of(self.odom.all[found[0]])
+        return odom, compose(self.start_pose, odom), pose_of(self.truth.msg), found[0]
 
     def travelled(self, x0, y0):
         x, y, _ = pose_of(self.odom.msg)
