@@ -3,10 +3,12 @@
 
 The test owns /clock, TF odom -> base_link (+ a static base_link -> laser) and ``scan``
 (ray-cast in ``synthetic.office_world``). It drives 1 m, then sends bad scans (empty, all
-NaN, unknown frame, zero angle increment, tilted laser frame is covered by the unit tests),
-drives on, then makes the clock jump back (a bag loop) and drives the same stretch again.
-The node must keep publishing entropy and, after the jump, a fresh map. Waits are on
-conditions with wall-clock timeouts.
+NaN, unknown frame, zero angle increment, no frame_id; a tilted laser frame is covered by
+the unit tests), each kind until the mapper's warning naming it arrives on /rosout and then
+10 more, which the per-kind throttle must keep quiet (at most one warning per 5 s of wall
+time); drives on, then makes the clock jump back (a bag loop: one warning, the map reset)
+and drives the same stretch again. The node must keep publishing entropy and, after the
+jump, a fresh map. Waits are on conditions with wall-clock timeouts.
 """
 import sys
 import time
@@ -26,10 +28,14 @@ from ascc_navigation import synthetic as S
 from ascc_navigation.grid import OCCUPIED
 from ascc_navigation.laser import LaserMount
 from ascc_navigation.pose2d import compose, quaternion_from_yaw
+from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import Latest, wait_for
 
 WORLD_START = np.array([2.0, 2.0, 0.0])  # odom origin in the synthetic office
 MOUNT = LaserMount(0.05, 0.0, 0.0)
+NODE = "/slam_gmapping"
+WARN_PERIOD_S = 5.0  # the mapper's per-kind warning period (wall clock)
+EXTRA = 10  # bad scans of a kind sent after its warning
 
 
 def transform(stamp, parent, child, x, y, yaw):
@@ -57,6 +63,11 @@ class MapperBadInputTest(unittest.TestCase):
         cls.truth, cls.info = S.office_world()
         cls.spec = S.LaserSpec()
         cls.rng = np.random.default_rng(0)
+        cls.log = RosoutWatcher()
+        cls.log.wait_for_connection()
+
+    def warnings(self, words, since):
+        return self.log.matching(node=NODE, level="warn", contains=words, since_wall_s=since)
 
     def tick(self, t, odom_pose, ranges=None, frame="laser", increment=None):
         """Advance the clock to t [s], publish odom -> base_link and one scan at t."""
@@ -102,22 +113,50 @@ class MapperBadInputTest(unittest.TestCase):
         before_jump = self.map.msg.header.stamp
 
         n = self.spec.n
-        for ranges, frame, inc in (([], "laser", None), ([float("nan")] * n, "laser", None),
-                                   ([1.0] * n, "no_such_frame", None),
-                                   ([1.0] * n, "laser", 0.0), ([1.0] * n, "", None)):
-            t += 0.1
-            self.tick(t, (1.0, 0.0, 0.0), ranges=ranges, frame=frame, increment=inc)
+        # Each kind of bad scan is sent until its warning arrives (the mapper keeps only the
+        # newest scans: one alone may be superseded unseen), then EXTRA more of it, which
+        # the per-kind throttle (WARN_PERIOD_S of wall time) must keep quiet.
+        kinds = ((([], "laser", None), ("empty scan",)),
+                 (([float("nan")] * n, "laser", None),
+                  ("no valid range in the scan (%d beams" % n,)),
+                 (([1.0] * n, "no_such_frame", None),
+                  ("scan in frame 'no_such_frame' dropped", "no TF")),
+                 (([1.0] * n, "laser", 0.0), ("angle_increment is 0",)),
+                 (([1.0] * n, "", None), ("scan without frame_id",)))
+        windows = []
+        for (ranges, frame, inc), words in kinds:
+            start = time.monotonic()
+            deadline = start + 20.0
+            extra = EXTRA
+            while extra > 0:
+                if time.monotonic() > deadline:
+                    self.fail("no warning %s from %s in 20 s" % (words, NODE))
+                t += 0.1
+                self.tick(t, (1.0, 0.0, 0.0), ranges=ranges, frame=frame, increment=inc)
+                if self.warnings(words, start):
+                    extra -= 1
+            windows.append((words, start))
+        end = time.monotonic()
+        for words, start in windows:
+            assert_throttled(self.warnings(words, start), WARN_PERIOD_S, start, end,
+                             clock="wall_s", what="warning %s" % (words,))
         count = self.entropy.count
         t = self.drive(t, 1.0, 1.6)
         wait_for(lambda: self.entropy.count > count, 20.0, "entropy after the bad scans")
 
         # bag loop: the clock jumps back to 1.0 s and the robot is at the start again
         maps = self.map.count
-        self.drive(1.0, 0.0, 0.8)
+        start = time.monotonic()
+        t = self.drive(1.0, 0.0, 0.8)
         wait_for(lambda: self.map.count > maps and self.map.msg.header.stamp < before_jump,
                  20.0, "a new map after the clock jumped back")
+        words = ("time went backwards by", "map reset")
+        self.log.wait_for(20.0, "the mapper's warning about the clock", node=NODE,
+                          level="warn", contains=words, since_wall_s=start)
+        # one jump, one warning (the reset is not repeated for the scans after it)
+        self.assertEqual(len(self.warnings(words, start)), 1)
         count = self.entropy.count
-        self.drive(2.0, 0.8, 1.4)
+        self.drive(t, 0.8, 1.4)
         wait_for(lambda: self.entropy.count > count, 20.0, "entropy after the jump")
         grid = np.asarray(self.map.msg.data)
         self.assertTrue(set(np.unique(grid).tolist()) <= {-1, 0, 100})
