@@ -2,14 +2,16 @@
 """rostest: the slam_gmapping stand-in maps part of the simulated office.
 
 The robot is driven along ``~waypoints`` (world frame) by a simple controller on the
-simulator's ground truth; meanwhile a few bad scans (empty, all NaN, unknown frame) are
-published on ``scan``. Then: the map agrees with ``ground_truth/map`` (>= ``~min_accuracy``
-of the known cells), holds only -1/0/100, ``dynamic_map`` serves it, the entropy was
-published, and TF map -> base_link matches the true pose. Waits are on conditions with
-wall-clock timeouts, never fixed sleeps.
+simulator's ground truth. Before, while it stands at the start, bad scans (empty, all NaN,
+unknown frame) are published on ``scan``, each kind until the mapper's warning naming it
+has come on /rosout (at most once per 5 s of wall time). Then: the map agrees with
+``ground_truth/map`` (>= ``~min_accuracy`` of the known cells), holds only -1/0/100,
+``dynamic_map`` serves it, the entropy was published, and TF map -> base_link matches the
+true pose. Waits are on conditions with wall-clock timeouts, never fixed sleeps.
 """
 import math
 import sys
+import threading
 import time
 import unittest
 
@@ -25,7 +27,12 @@ from std_msgs.msg import Float64
 
 from ascc_navigation.grid import GridInfo, grid_from_msg_data, map_agreement
 from ascc_navigation.pose2d import compose, inverse, normalize_angle, yaw_from_quaternion
+from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import Latest, pose_of, wait_for
+
+NODE = "/slam_gmapping"
+WARN_PERIOD_S = 5.0  # the mapper's per-kind warning period (wall clock)
+EXTRA = 5  # bad scans of a kind sent after its warning
 
 
 class MapperTest(unittest.TestCase):
@@ -44,22 +51,72 @@ class MapperTest(unittest.TestCase):
         cls.entropy = Latest("slam_gmapping/entropy", Float64)
         cls.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         cls.bad_scans = rospy.Publisher("scan", LaserScan, queue_size=5)
+        cls.lock = threading.Lock()
+        cls.bad = None  # (frame, ranges) of the bad scans to send, or None
+        cls.bad_sent = 0
+        cls.log = RosoutWatcher()
+        cls.log.wait_for_connection()
+        cls.sim_scan = None  # the newest simulator scan
+        cls.scan_sub = rospy.Subscriber("scan", LaserScan, cls.on_scan, queue_size=5)
         cls.tf_buffer = tf2_ros.Buffer()
         cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
 
+    @classmethod
+    def on_scan(cls, msg):
+        """Right after a simulator scan, the bad scan of the current kind with its stamp:
+        the mapper keeps only the newest scans and processes the newest whose TF has come,
+        so the bad scan is processed in the simulator scan's place (with the same TF). An
+        earlier stamp than a scan the mapper has processed would reset its map (bag loop);
+        at worst, with this callback 0.1 s of simulated time late, that happens once while
+        the robot stands at the start, which the map does not notice."""
+        if msg._connection_header.get("callerid") == rospy.get_name():
+            return  # our own
+        with cls.lock:
+            cls.sim_scan = msg
+            bad = cls.bad
+        if bad is None:
+            return
+        out = LaserScan()
+        out.header.stamp = msg.header.stamp
+        out.header.frame_id, out.ranges = bad
+        out.angle_min, out.angle_max = msg.angle_min, msg.angle_max
+        out.angle_increment = msg.angle_increment
+        out.range_min, out.range_max = msg.range_min, msg.range_max
+        cls.bad_scans.publish(out)
+        with cls.lock:
+            cls.bad_sent += 1
+
     def publish_bad_scans(self):
-        """Scans the mapper must survive (it warns and drops them)."""
+        """Scans the mapper must warn about (naming the problem, each kind at most once per
+        WARN_PERIOD_S of wall time) and drop: each kind until its warning has come, then
+        EXTRA more that the throttle must keep quiet."""
         wait_for(lambda: self.bad_scans.get_num_connections() > 0, 30.0, "the mapper on scan")
-        for frame, ranges in (("laser", []), ("laser", [float("nan")] * 683),
-                              ("no_such_frame", [1.0] * 683)):
-            msg = LaserScan()
-            msg.header.stamp = rospy.Time.now()
-            msg.header.frame_id = frame
-            msg.angle_min, msg.angle_max = -2.094, 2.094
-            msg.angle_increment = 0.006136
-            msg.range_min, msg.range_max = 0.02, 4.094
-            msg.ranges = ranges
-            self.bad_scans.publish(msg)
+        wait_for(lambda: self.sim_scan is not None, 30.0, "a simulator scan")
+        n = len(self.sim_scan.ranges)
+        windows = []
+        for frame, ranges, words in (
+                ("laser", [], ("empty scan",)),
+                ("laser", [float("nan")] * n, ("no valid range in the scan (%d beams" % n,)),
+                ("no_such_frame", [1.0] * n, ("scan in frame 'no_such_frame' dropped",
+                                              "no TF"))):
+            start = time.monotonic()
+            with self.lock:
+                type(self).bad = (frame, ranges)
+            self.log.wait_for(30.0, "the mapper's warning %s" % (words,), node=NODE,
+                              level="warn", contains=words, since_wall_s=start)
+            sent = self.bad_sent
+            wait_for(lambda s=sent: self.bad_sent >= s + EXTRA, 30.0,
+                     "%d more bad scans %s" % (EXTRA, words))
+            windows.append((words, start))
+        with self.lock:
+            type(self).bad = None
+        self.scan_sub.unregister()
+        end = time.monotonic()
+        for words, start in windows:
+            assert_throttled(self.log.matching(node=NODE, level="warn", contains=words,
+                                               since_wall_s=start),
+                             WARN_PERIOD_S, start, end, clock="wall_s",
+                             what="warning %s" % (words,))
 
     def drive_route(self):
         rate = rospy.Rate(20.0)  # simulated time
