@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `make bench`: every package's benchmark script (ascc_ros_pkg/*/scripts/bench_*.py), one
 # after another, printing their numbers. Benchmarks are not tests: they measure speed and
-# quality on this machine; the package READMEs record the numbers with the machine.
+# quality on this machine; docs/results/<package>.md record the numbers with the machine.
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Exploration benchmark in the simulator (Explore-Bench's metrics), for the README.
+"""Exploration benchmark in the simulator (Explore-Bench's metrics), for
+docs/results/frontier_detector.md.
 
 Runs `launch/explore_demo.launch` (simulator + driver + mapper + navigator + explorer +
 monitor, each run its own roslaunch on its own master port) for every world x strategy x
@@ -21,8 +22,8 @@ back-fills `seen` of runs from before the monitor measured it from their run.bag
 The simulator's real-time factor cap is per world unless `--rtf` is given (DEFAULT_RTF):
 4 for the office and the lab, 2 for the 100 m corridor loop, whose mapper and navigator need
 more CPU than 2 cores give at 4 (the robot's nodes then starve: late odometry, late
-commands, see the frontier_detector README). Long: an office run takes 2-4 minutes of wall
-time, a corridor run about 10.
+commands, see docs/results/frontier_detector.md). Long: an office run takes 2-4 minutes
+of wall time, a corridor run about 10.
 
     python ascc_ros_pkg/frontier_detector/scripts/bench_exploration.py \
         [--worlds office lab corridor] [--strategies utility nearest] [--seeds 0 1 2 3 4]
@@ -147,7 +148,8 @@ def group(results):
 
 
 def summarise(results):
-    """Plain table and a markdown table (for the README) of every (world, strategy)."""
+    """Plain table and a markdown table (for docs/results/frontier_detector.md) of every
+    (world, strategy)."""
     print("\n%-9s %-8s %5s %7s %7s %8s %8s %8s %8s %5s %7s %8s" % (
         "world", "strategy", "runs", "cov_min", "cov>=95", "path_m", "t90_s", "t95_s",
         "t99_s", "hits", "map_ok", "seen_min"))

@@ -1,7 +1,8 @@
 """Benchmark of the virtual Create: how fast it emulates, parses and answers over a pty.
 
 Run: python ascc_ros_pkg/irobot_create_2_1/scripts/bench_virtual_create.py  (after
-`source env.sh`). Prints one line per measurement; numbers go in README_virtual_create.md.
+`source env.sh`). Prints one line per measurement; numbers go in
+docs/results/irobot_create_2_1.md.
 """
 import argparse
 import statistics
