@@ -24,11 +24,11 @@ import yaml
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
+from ascc_common.pose2d import wrap_angle  # noqa: E402
 from ascc_navigation import mcl  # noqa: E402
 from ascc_navigation import synthetic as syn  # noqa: E402
 from ascc_navigation.grid import OCCUPIED  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
-from ascc_navigation.pose2d import normalize_angle  # noqa: E402
 
 
 def run_once(seed: int, params: mcl.MclParams, odom_noise: float):
@@ -58,7 +58,7 @@ def run_once(seed: int, params: mcl.MclParams, odom_noise: float):
         d = truth[k, :2] - mean[:2]
         errors.append(float(np.hypot(*d)))
         inside.append(float(d @ np.linalg.solve(cov[:2, :2], d)) <= 4.0)
-        yaw_err.append(abs(float(normalize_angle(truth[k, 2] - mean[2]))))
+        yaw_err.append(abs(float(wrap_angle(truth[k, 2] - mean[2]))))
         counts.append(len(loc.poses))
         sigma.append(float(np.sqrt(0.5 * (cov[0, 0] + cov[1, 1]))))
     return (np.array(errors), np.array(inside), np.array(yaw_err), np.array(counts),

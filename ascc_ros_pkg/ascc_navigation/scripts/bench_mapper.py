@@ -35,11 +35,11 @@ import yaml  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
+from ascc_common.pose2d import compose  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
 from ascc_navigation.grid import OCCUPIED, GridInfo, map_agreement  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
-from ascc_navigation.pose2d import compose  # noqa: E402
 
 CONFIG = os.path.join(HERE, "..", "config", "gmapping.yaml")
 SIM_WORLDS = os.path.join(HERE, "..", "..", "ascc_sim", "worlds")

@@ -41,6 +41,12 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from bench_mapper import add_parameter_arguments, parameters_from_arguments  # noqa: E402
 
+from ascc_common.pose2d import (  # noqa: E402
+    compose,
+    inverse,
+    wrap_angle,
+    yaw_of,
+)
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation.grid import (  # noqa: E402
     FREE,
@@ -50,18 +56,8 @@ from ascc_navigation.grid import (  # noqa: E402
     map_agreement,
 )
 from ascc_navigation.laser import LaserMount  # noqa: E402
-from ascc_navigation.pose2d import (  # noqa: E402
-    compose,
-    inverse,
-    normalize_angle,
-    yaw_from_quaternion,
-)
 
 GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading drift
-
-
-def _yaw(q):
-    return yaw_from_quaternion(q.x, q.y, q.z, q.w)
 
 
 class RunBag:
@@ -94,7 +90,7 @@ class RunBag:
                         p = tr.transform.translation
                         if tr.header.frame_id == odom_frame and tr.child_frame_id == base_frame:
                             odom.append((tr.header.stamp.to_sec(), p.x, p.y,
-                                         _yaw(tr.transform.rotation)))
+                                         yaw_of(tr.transform.rotation)))
                             received.append(t_ns * 1e-9)
                         elif tr.header.frame_id == base_frame and self.mount is None \
                                 and "laser" in tr.child_frame_id:
@@ -107,7 +103,7 @@ class RunBag:
                 else:
                     m = PoseStamped().deserialize(raw)
                     truth.append((m.header.stamp.to_sec(), m.pose.position.x, m.pose.position.y,
-                                  _yaw(m.pose.orientation)))
+                                  yaw_of(m.pose.orientation)))
         if not self.scans or not odom or self.mount is None:
             raise SystemExit("%s: needs %s, odom -> base_link TF and a base -> laser TF"
                              % (path, scan_topic))
@@ -125,7 +121,7 @@ class RunBag:
         a, b = o[i - 1], o[i]
         f = (t - a[0]) / max(b[0] - a[0], 1e-9)
         return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
-                         a[3] + f * float(normalize_angle(b[3] - a[3]))])
+                         a[3] + f * float(wrap_angle(b[3] - a[3]))])
 
     def truth_at(self, t):
         g = self.truth
@@ -133,7 +129,7 @@ class RunBag:
         a, b = g[i - 1], g[i]
         f = float(np.clip((t - a[0]) / max(b[0] - a[0], 1e-9), 0.0, 1.0))
         return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
-                         a[3] + f * float(normalize_angle(b[3] - a[3]))])
+                         a[3] + f * float(wrap_angle(b[3] - a[3]))])
 
     def tf_lateness(self):
         """Per scan: how long after its stamp the first odometry TF at or after the stamp was
@@ -185,7 +181,7 @@ def replay(run, params, seed, drop_late_s, late):
                 est = compose(world_from_map, mapper.robot_pose())
                 true = run.truth_at(stamp)
                 errors.append((math.hypot(est[0] - true[0], est[1] - true[1]),
-                               abs(math.degrees(float(normalize_angle(est[2] - true[2]))))))
+                               abs(math.degrees(float(wrap_angle(est[2] - true[2]))))))
     grid, info = mapper.occupancy()
     result = {"seed": seed, "updates": updates, "dropped": dropped,
               "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info}

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
+from ascc_common.pose2d import compose, wrap_angle
 from ascc_navigation import mcl
 from ascc_navigation import synthetic as syn
 from ascc_navigation.grid import OCCUPIED, GridInfo
 from ascc_navigation.laser import LaserMount
-from ascc_navigation.pose2d import compose, normalize_angle
 
 MOUNT = LaserMount(0.1, 0.0, 0.0)
 
@@ -134,7 +134,7 @@ def test_estimate_mean_and_covariance_with_yaw_wrap():
     loc.initialize_gaussian((1.0, 1.0, np.pi - 0.05), cov)
     mean, est = loc.estimate()
     assert mean[:2] == pytest.approx([1.0, 1.0], abs=0.01)
-    assert normalize_angle(mean[2] - (np.pi - 0.05)) == pytest.approx(0.0, abs=0.005)
+    assert wrap_angle(mean[2] - (np.pi - 0.05)) == pytest.approx(0.0, abs=0.005)
     # spread of the cloud plus the cell term res^2 / 12 on x and y
     expected = cov + np.diag([0.01 / 12, 0.01 / 12, 0.0])
     assert est == pytest.approx(expected, abs=0.004)

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
+from ascc_common import pose2d as P
 from ascc_navigation import grid as G
 from ascc_navigation import mapper as M
-from ascc_navigation import pose2d as P
 from ascc_navigation import rbpf as R
 from ascc_navigation import synthetic as S
 from ascc_navigation.laser import LaserMount, prepare_scan
@@ -26,19 +26,6 @@ def _room_scan(pose, mount=MOUNT, world=None, noise=0.0, seed=0):
 def _prepare(ranges, mount=MOUNT, max_urange=3.9, **kw):
     return prepare_scan(ranges, SPEC.angle_min, SPEC.angle_increment, SPEC.range_min,
                         SPEC.range_max, mount, max_urange, **kw)
-
-
-# ---------------------------------------------------------------- pose2d
-
-def test_pose_compose_inverse_relative():
-    a = np.array([1.0, -2.0, 0.7])
-    b = np.array([0.3, 0.4, -2.0])
-    assert np.allclose(P.compose(a, P.inverse(a)), 0.0, atol=1e-12)
-    assert np.allclose(P.compose(a, P.relative(a, b)), b)
-    # a point 1 m ahead of a robot at (1, -2) facing 0.7 rad
-    assert np.allclose(P.transform_points(a, [[1.0, 0.0]]), [[1 + math.cos(0.7),
-                                                             -2 + math.sin(0.7)]])
-    assert P.normalize_angle(3 * math.pi) == pytest.approx(-math.pi)
 
 
 # ---------------------------------------------------------------- laser

@@ -95,8 +95,9 @@ def seen_from_bag(run_dir, clearance_m=0.18):
 
     import rosbag
 
+    from ascc_common.pose2d import yaw_of
     from frontier_detector.report import LaserGeometry, SeenArea, reachable_area
-    from frontier_detector.rosmsg import grid_from_msg, yaw_of
+    from frontier_detector.rosmsg import grid_from_msg
 
     path = os.path.join(run_dir, "run.bag")
     if not os.path.exists(path):

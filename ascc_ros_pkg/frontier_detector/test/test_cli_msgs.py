@@ -4,13 +4,15 @@ import os
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import Quaternion
 from nav_msgs.msg import OccupancyGrid
 from visualization_msgs.msg import Marker
 
+from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from frontier_detector import cli
 from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
 from frontier_detector.planner import plan
-from frontier_detector.rosmsg import grid_from_msg, plan_markers, quaternion_from_yaw
+from frontier_detector.rosmsg import grid_from_msg, plan_markers
 
 MAP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "maps", "office_partial.yaml")
 
@@ -45,7 +47,7 @@ def make_msg(grid, res=0.05, ox=1.0, oy=-2.0, yaw=0.0):
     m.info.resolution = res
     m.info.height, m.info.width = grid.shape
     m.info.origin.position.x, m.info.origin.position.y = ox, oy
-    m.info.origin.orientation = quaternion_from_yaw(yaw)
+    m.info.origin.orientation = Quaternion(*quaternion_from_yaw(yaw))
     m.data = grid.ravel().tolist()
     return m
 
@@ -91,7 +93,7 @@ def test_markers_show_every_phase_and_the_goal():
 def test_goal_faces_its_frontier():
     import math
 
-    from frontier_detector.rosmsg import goal_pose, yaw_of
+    from frontier_detector.rosmsg import goal_pose
 
     g = np.full((40, 200), FREE, np.int8)
     g[20:, :] = UNKNOWN                                # frontier north (+y) of the robot

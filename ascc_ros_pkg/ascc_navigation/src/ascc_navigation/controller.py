@@ -28,14 +28,12 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ascc_common.pose2d import wrap_angle
+
 FOLLOWING = "following"
 ROTATING = "rotating"  # on the spot towards the path or the goal yaw
 BLOCKED = "blocked"
 GOAL_REACHED = "goal_reached"
-
-
-def wrap_angle(a: float) -> float:
-    return float((a + np.pi) % (2.0 * np.pi) - np.pi)
 
 
 @dataclass

@@ -23,6 +23,8 @@ from typing import Optional
 
 import numpy as np
 
+from ascc_common.pose2d import yaw_from_quaternion, z_axis_from_quaternion
+
 # A laser whose z axis deviates more than this from the base's +-z is not planar with the base.
 MAX_TILT_RAD = 0.1
 # Free-space pull-back at grazing incidence: divided by sin(grazing angle), at most this many
@@ -47,14 +49,11 @@ class LaserMount:
     def from_transform(cls, tx: float, ty: float, qx: float, qy: float, qz: float,
                        qw: float) -> LaserMount:
         """From a base->laser transform; ValueError if the laser is not level (tilted)."""
-        zx = 2.0 * (qx * qz + qw * qy)
-        zy = 2.0 * (qy * qz - qw * qx)
-        zz = 1.0 - 2.0 * (qx * qx + qy * qy)
+        zx, zy, zz = z_axis_from_quaternion(qx, qy, qz, qw)
         if math.hypot(zx, zy) > math.sin(MAX_TILT_RAD):
             raise ValueError("laser frame is tilted (z axis %.2f %.2f %.2f in the base frame); "
                              "only level lasers are supported" % (zx, zy, zz))
-        yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-        return cls(tx, ty, yaw, upside_down=zz < 0.0)
+        return cls(tx, ty, yaw_from_quaternion(qx, qy, qz, qw), upside_down=zz < 0.0)
 
     def beam_angles(self, n: int, angle_min: float, angle_increment: float) -> np.ndarray:
         """Directions [rad] of the n beams in the base frame."""

@@ -26,9 +26,9 @@ from typing import Mapping, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
+from ascc_common.pose2d import compose, inverse, wrap_angle
 from ascc_navigation.grid import GridInfo
 from ascc_navigation.laser import LaserMount
-from ascc_navigation.pose2d import compose, inverse, normalize_angle
 
 OCCUPIED_MIN = 65  # occupancy value [0..100] from which a cell counts as an obstacle
 FREE_MAX = 25  # occupancy value up to which a known cell counts as free
@@ -203,7 +203,7 @@ class MonteCarloLocalizer:
         cov = np.asarray(cov, dtype=float).reshape(3, 3)
         cov = 0.5 * (cov + cov.T) + np.eye(3) * 1e-9
         self.poses = self.rng.multivariate_normal(np.asarray(mean, dtype=float), cov, n)
-        self.poses[:, 2] = normalize_angle(self.poses[:, 2])
+        self.poses[:, 2] = wrap_angle(self.poses[:, 2])
         self.log_w = np.full(n, -np.log(n))
         self._restart()
 
@@ -244,11 +244,11 @@ class MonteCarloLocalizer:
         p = self.params
         dx, dy = odom_now[0] - odom_prev[0], odom_now[1] - odom_prev[1]
         trans = float(np.hypot(dx, dy))
-        rot1 = float(normalize_angle(np.arctan2(dy, dx) - odom_prev[2])) if trans > 0.01 else 0.0
-        rot2 = float(normalize_angle(odom_now[2] - odom_prev[2] - rot1))
+        rot1 = float(wrap_angle(np.arctan2(dy, dx) - odom_prev[2])) if trans > 0.01 else 0.0
+        rot2 = float(wrap_angle(odom_now[2] - odom_prev[2] - rot1))
         # driving backwards is a small rotation plus negative motion, not a half turn
-        rot1_n = min(abs(rot1), abs(float(normalize_angle(rot1 - np.pi))))
-        rot2_n = min(abs(rot2), abs(float(normalize_angle(rot2 - np.pi))))
+        rot1_n = min(abs(rot1), abs(float(wrap_angle(rot1 - np.pi))))
+        rot2_n = min(abs(rot2), abs(float(wrap_angle(rot2 - np.pi))))
         n = len(self.poses)
         sd_rot1 = np.sqrt(p.odom_alpha1 * rot1_n ** 2 + p.odom_alpha2 * trans ** 2)
         sd_trans = np.sqrt(p.odom_alpha3 * trans ** 2 + p.odom_alpha4 * (rot1_n ** 2 + rot2_n ** 2))
@@ -259,7 +259,7 @@ class MonteCarloLocalizer:
         heading = self.poses[:, 2] + r1
         self.poses[:, 0] += tr * np.cos(heading)
         self.poses[:, 1] += tr * np.sin(heading)
-        self.poses[:, 2] = normalize_angle(heading + r2)
+        self.poses[:, 2] = wrap_angle(heading + r2)
 
     def update_sensor(self, endpoints_base: np.ndarray) -> float:
         """Weights the particles by the scan; returns the mean log-likelihood per particle.
@@ -338,7 +338,7 @@ class MonteCarloLocalizer:
         if self.last_odom is not None:
             d = odom_pose - self.last_odom
             moved = (abs(d[0]) > self.params.update_min_d or abs(d[1]) > self.params.update_min_d
-                     or abs(float(normalize_angle(d[2]))) > self.params.update_min_a)
+                     or abs(float(wrap_angle(d[2]))) > self.params.update_min_a)
             if not moved and not self.force_update:
                 return False
             self.predict(self.last_odom, odom_pose)
@@ -371,7 +371,7 @@ class MonteCarloLocalizer:
         mx, my = float(w @ self.poses[:, 0]), float(w @ self.poses[:, 1])
         myaw = float(np.arctan2(w @ np.sin(self.poses[:, 2]), w @ np.cos(self.poses[:, 2])))
         dev = np.column_stack([self.poses[:, 0] - mx, self.poses[:, 1] - my,
-                               normalize_angle(self.poses[:, 2] - myaw)])
+                               wrap_angle(self.poses[:, 2] - myaw)])
         cov = (dev * w[:, None]).T @ dev
         ess = max(min(self.last_ess, self.effective_sample_size()), 1.0)
         cov *= 1.0 + 1.0 / ess

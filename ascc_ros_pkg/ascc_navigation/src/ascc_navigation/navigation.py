@@ -29,11 +29,11 @@ from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
+from ascc_common.pose2d import transform_points, z_axis_from_quaternion
+from ascc_common.pose2d import yaw_from_quaternion as _yaw
 from ascc_navigation import controller as ctl
 from ascc_navigation import planner as pln
 from ascc_navigation.grid import GridInfo
-from ascc_navigation.pose2d import transform_points, z_axis_from_quaternion
-from ascc_navigation.pose2d import yaw_from_quaternion as _yaw
 
 IDLE = "idle"
 ACTIVE = "active"

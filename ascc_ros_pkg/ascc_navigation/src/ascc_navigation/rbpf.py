@@ -38,9 +38,9 @@ from typing import Optional, Tuple
 import cv2
 import numpy as np
 
+from ascc_common.pose2d import compose, wrap_angle
 from ascc_navigation.grid import GridInfo, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan
-from ascc_navigation.pose2d import compose, normalize_angle
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
@@ -163,7 +163,7 @@ def motion_noise(delta: np.ndarray, cfg: RbpfConfig) -> Tuple[float, float]:
       sigma_theta = stt * |dtheta| + srt * |d|   [rad], with d = hypot(dx, dy).
     """
     dist = math.hypot(delta[0], delta[1])
-    rot = abs(float(normalize_angle(delta[2])))
+    rot = abs(float(wrap_angle(delta[2])))
     return cfg.srr * dist + cfg.str * rot, cfg.stt * rot + cfg.srt * dist
 
 
@@ -570,7 +570,7 @@ class RbpfSlam:
             step[stuck] *= 0.5
             halvings[stuck] += 1
             active = active[halvings[active] < cfg.iterations]
-        pose[:, 2] = normalize_angle(pose[:, 2])
+        pose[:, 2] = wrap_angle(pose[:, 2])
         return pose, score
 
     def _candidate_scores(self, fields: _LikelihoodFields, cand: np.ndarray,

@@ -12,9 +12,9 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.pose2d import compose, relative, wrap_angle
 from ascc_navigation.grid import FREE, OCCUPIED, GridInfo, raycast
 from ascc_navigation.laser import LaserMount
-from ascc_navigation.pose2d import compose, normalize_angle, relative
 
 # Hokuyo URG-04LX as in the thesis (section 2.2): 240 deg field of view, 0.36 deg steps
 # (683 beams over 240 deg: the scanner's 1024 steps per revolution), 0.02 .. 4.094 m.
@@ -95,10 +95,10 @@ def waypoint_trajectory(waypoints: Sequence[Tuple[float, float]], v: float = 0.3
     poses = [(wp[0, 0], wp[0, 1], heading)]
     for (x0, y0), (x1, y1) in zip(wp[:-1], wp[1:]):
         target = math.atan2(y1 - y0, x1 - x0)
-        turn = float(normalize_angle(target - heading))
+        turn = float(wrap_angle(target - heading))
         k = max(int(math.ceil(abs(turn) / (w * dt))), 1)
         for i in range(1, k + 1):  # per time step, not per beam or cell
-            poses.append((x0, y0, float(normalize_angle(heading + turn * i / k))))
+            poses.append((x0, y0, float(wrap_angle(heading + turn * i / k))))
         heading = target
         dist = math.hypot(x1 - x0, y1 - y0)
         k = max(int(math.ceil(dist / (v * dt))), 1)

@@ -22,6 +22,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.pose2d import quaternion_from_yaw
 from ascc_sim.msg import SimObject, SimObjectArray
 
 from .grid import GridMap
@@ -34,12 +35,8 @@ def stamp(t_s: float) -> genpy.Time:
     return genpy.Time.from_sec(max(0.0, t_s))
 
 
-def yaw_quaternion(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))
-
-
 def pose_msg(x: float, y: float, yaw: float, z: float = 0.0) -> Pose:
-    return Pose(Point(x, y, z), yaw_quaternion(yaw))
+    return Pose(Point(x, y, z), Quaternion(*quaternion_from_yaw(yaw)))
 
 
 def frame_names(robot: RobotSpec) -> Tuple[str, str, str]:
@@ -94,7 +91,7 @@ def static_transform(t_s: float, parent: str, child: str, x: float, y: float, z:
     tf.header = Header(stamp=stamp(t_s), frame_id=parent)
     tf.child_frame_id = child
     tf.transform.translation = Vector3(x, y, z)
-    tf.transform.rotation = yaw_quaternion(yaw)
+    tf.transform.rotation = Quaternion(*quaternion_from_yaw(yaw))
     return tf
 
 

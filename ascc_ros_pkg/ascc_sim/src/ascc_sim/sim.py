@@ -15,6 +15,8 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.pose2d import wrap_angle
+
 from .laser import LaserConfig, LaserModel, float_fields
 from .people import PersonState, ScriptedPerson
 from .world import RobotSpec, World
@@ -87,7 +89,7 @@ def integrate_arc(x: float, y: float, yaw: float, d_left: float, d_right: float,
     half = 0.5 * dth
     chord = ds * (math.sin(half) / half if abs(half) > 1e-9 else 1.0)
     return (x + chord * math.cos(yaw + half), y + chord * math.sin(yaw + half),
-            math.atan2(math.sin(yaw + dth), math.cos(yaw + dth)))
+            wrap_angle(yaw + dth))
 
 
 class Simulation:
@@ -181,7 +183,7 @@ class Simulation:
         if best is None:
             return None
         b = math.atan2(best[1] - robot.y, best[0] - robot.x) - robot.yaw
-        return math.atan2(math.sin(b), math.cos(b))
+        return wrap_angle(b)
 
     def _move(self, robot: RobotState, dt: float) -> Tuple[float, float]:
         """Advance one robot; returns what its wheels really travelled (left, right) [m]."""

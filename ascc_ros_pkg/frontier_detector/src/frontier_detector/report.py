@@ -31,6 +31,8 @@ from typing import Dict, Iterable, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
+from ascc_common.pose2d import wrap_angle
+
 from .frontiers import disk_kernel, snap_to_mask, traversable_mask
 from .grid import FREE, OCCUPIED, UNKNOWN, MapInfo, save_map_yaml
 
@@ -131,7 +133,7 @@ class SeenArea:
         """Cast from the true pose (x, y, yaw) of the robot; True if it cast."""
         if self.last is not None:
             lx, ly, lyaw = self.last
-            turn = abs(math.atan2(math.sin(yaw - lyaw), math.cos(yaw - lyaw)))
+            turn = abs(wrap_angle(yaw - lyaw))
             if math.hypot(x - lx, y - ly) < self.min_move_m and turn < self.min_turn_rad:
                 return False
         self.last = (x, y, yaw)

@@ -23,17 +23,10 @@ from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.pose2d import quaternion_from_yaw, yaw_of
+
 from .grid import MapInfo, to_trinary
 from .planner import Plan
-
-
-def yaw_of(q) -> float:
-    """Yaw [rad] of a geometry_msgs/Quaternion."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def quaternion_from_yaw(yaw: float) -> Quaternion:
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
 
 
 def grid_from_msg(msg: OccupancyGrid, free_max: int = 19, occupied_min: int = 65
@@ -67,7 +60,7 @@ def goal_pose(frame_id: str, stamp, goal_xy: Tuple[float, float],
         yaw = 0.0
         if robot_xy is not None:
             yaw = math.atan2(goal_xy[1] - robot_xy[1], goal_xy[0] - robot_xy[0])
-    ps.pose.orientation = quaternion_from_yaw(yaw)
+    ps.pose.orientation = Quaternion(*quaternion_from_yaw(yaw))
     return ps
 
 

@@ -7,6 +7,8 @@ backwards gives a negative distance and moves x backwards (Brown's driver got th
 import math
 from typing import List, Tuple
 
+from ascc_common.pose2d import wrap_angle
+
 
 def integrate_arc(x: float, y: float, theta: float, distance_m: float,
                   dtheta_rad: float) -> Tuple[float, float, float]:
@@ -18,10 +20,6 @@ def integrate_arc(x: float, y: float, theta: float, distance_m: float,
     return (x + radius * (math.sin(theta2) - math.sin(theta)),
             y - radius * (math.cos(theta2) - math.cos(theta)),
             theta2)
-
-
-def wrap_angle(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
 
 
 class Odometry:

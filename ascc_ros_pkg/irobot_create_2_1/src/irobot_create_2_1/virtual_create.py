@@ -50,6 +50,7 @@ import math
 from collections import namedtuple
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
+from ascc_common.pose2d import wrap_angle
 from irobot_create_2_1 import protocol
 
 # OI modes, values as in sensor packet 35.
@@ -106,10 +107,6 @@ def _int8(value: int) -> int:
 
 def _clamp(value: float, low: float, high: float) -> float:
     return low if value < low else high if value > high else value
-
-
-def _wrap_angle(theta: float) -> float:
-    return math.atan2(math.sin(theta), math.cos(theta))
 
 
 class Battery:
@@ -268,7 +265,7 @@ class VirtualCreate:
 
     def set_pose(self, x_m: float, y_m: float, theta_rad: float) -> None:
         """Place the robot (does not touch the odometry accumulators)."""
-        self._x, self._y, self._theta = float(x_m), float(y_m), _wrap_angle(theta_rad)
+        self._x, self._y, self._theta = float(x_m), float(y_m), wrap_angle(theta_rad)
 
     def power_cycle(self) -> None:
         """The robot switched off and on again (power button, a brown-out): the OI is back
@@ -644,7 +641,7 @@ class VirtualCreate:
             radius = ds / dtheta
             self._x += radius * (math.sin(self._theta + dtheta) - math.sin(self._theta))
             self._y -= radius * (math.cos(self._theta + dtheta) - math.cos(self._theta))
-        self._theta = _wrap_angle(self._theta + dtheta)
+        self._theta = wrap_angle(self._theta + dtheta)
         self._distance_acc_mm += ds * 1000.0
         self._angle_acc_deg += math.degrees(dtheta)
         if self._wait is not None and self._wait.kind == "distance":

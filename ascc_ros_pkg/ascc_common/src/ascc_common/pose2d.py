@@ -1,8 +1,11 @@
-"""Planar rigid transforms (x [m], y [m], theta [rad]), scalar or vectorised over leading axes.
+"""Planar poses (x [m], y [m], theta [rad]), scalar or vectorised over leading axes, and
+their quaternions: the one pose vocabulary of the stack.
 
 A pose ``a`` maps points from its child frame into its parent frame:
 ``p_parent = R(a.theta) p_child + (a.x, a.y)``. ``compose(a, b)`` is "a then b" (a * b),
 ``inverse(a)`` is a^-1, ``relative(a, b)`` = a^-1 * b (b seen from a), as in tf.
+Quaternions are (x, y, z, w) as in geometry_msgs; ``yaw_of`` reads any object with those
+attributes (a geometry_msgs/Quaternion) without importing ROS messages.
 """
 
 from __future__ import annotations
@@ -12,9 +15,10 @@ import math
 import numpy as np
 
 
-def normalize_angle(theta):
-    """Wrap angles [rad] to [-pi, pi)."""
-    return (np.asarray(theta) + math.pi) % (2.0 * math.pi) - math.pi
+def wrap_angle(theta):
+    """Wrap angles [rad] to [-pi, pi); a float for a scalar, an array for an array."""
+    wrapped = (np.asarray(theta, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi
+    return float(wrapped) if wrapped.ndim == 0 else wrapped
 
 
 def compose(a, b) -> np.ndarray:
@@ -25,7 +29,7 @@ def compose(a, b) -> np.ndarray:
     s = np.sin(a[..., 2])
     x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
     y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
-    return np.stack([x, y, normalize_angle(a[..., 2] + b[..., 2])], axis=-1)
+    return np.stack([x, y, wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
 
 
 def inverse(a) -> np.ndarray:
@@ -35,7 +39,7 @@ def inverse(a) -> np.ndarray:
     s = np.sin(a[..., 2])
     x = -(c * a[..., 0] + s * a[..., 1])
     y = s * a[..., 0] - c * a[..., 1]
-    return np.stack([x, y, normalize_angle(-a[..., 2])], axis=-1)
+    return np.stack([x, y, wrap_angle(-a[..., 2])], axis=-1)
 
 
 def relative(a, b) -> np.ndarray:
@@ -58,6 +62,11 @@ def transform_points(pose, pts) -> np.ndarray:
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
     """Yaw [rad] of a quaternion (rotation about z; roll/pitch ignored)."""
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def yaw_of(q) -> float:
+    """Yaw [rad] of a quaternion object with x, y, z, w attributes (geometry_msgs)."""
+    return yaw_from_quaternion(q.x, q.y, q.z, q.w)
 
 
 def quaternion_from_yaw(yaw: float):
