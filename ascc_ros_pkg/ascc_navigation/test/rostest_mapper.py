@@ -25,8 +25,8 @@ from nav_msgs.srv import GetMap
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 
+from ascc_common.pose2d import compose, inverse, wrap_angle, yaw_from_quaternion
 from ascc_navigation.grid import GridInfo, grid_from_msg_data, map_agreement
-from ascc_navigation.pose2d import compose, inverse, normalize_angle, yaw_from_quaternion
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import Latest, pose_of, wait_for
 
@@ -134,7 +134,7 @@ class MapperTest(unittest.TestCase):
                 dist = math.hypot(wx - x, wy - y)
                 if dist < 0.1:
                     break
-                err = float(normalize_angle(math.atan2(wy - y, wx - x) - yaw))
+                err = float(wrap_angle(math.atan2(wy - y, wx - x) - yaw))
                 t = Twist()
                 t.angular.z = max(-0.8, min(0.8, 2.0 * err))
                 t.linear.x = 0.0 if abs(err) > 0.3 else min(0.3, 0.8 * dist)
