@@ -26,9 +26,9 @@ def main(argv=None) -> int:
             print("ERROR %s" % exc)
             bad += 1
             continue
-        sx, sy = w.map.size_m
+        sx, sy = w.map.info.size_m
         print("ok    %s: %s, %.1f m x %.1f m (%d x %d cells), robots %s, %d objects, "
-              "%d people" % (path, w.name, sx, sy, w.map.width, w.map.height,
+              "%d people" % (path, w.name, sx, sy, w.map.info.width, w.map.info.height,
                              ", ".join("%s[%s]" % (r.name, r.namespace or "/")
                                        for r in w.robots), len(w.objects), len(w.people)))
     return 1 if bad else 0

@@ -6,7 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from ascc_sim.grid import OCCUPIED, GridMap
+from ascc_common.grid import OCCUPIED, GridInfo
+from ascc_sim.grid import GridMap
 from ascc_sim.laser import LaserConfig, LaserModel, RayCaster, cast_circles
 from ascc_sim.world import load_world
 
@@ -17,8 +18,9 @@ def reference_range(grid, x, y, angle, max_range):
     """Amanatides-Woo grid traversal, one beam at a time: (distance to the first solid
     cell or inf if none within max_range, length of the beam inside that cell [m]).
     Independent of the code under test."""
-    res = grid.resolution
-    u, v = (x - grid.origin_x) / res, (y - grid.origin_y) / res
+    info = grid.info
+    res = info.resolution
+    u, v = (x - info.origin_x) / res, (y - info.origin_y) / res
     dx, dy = math.cos(angle), math.sin(angle)
     ix, iy = int(math.floor(u)), int(math.floor(v))
     step_x = 1 if dx > 0 else -1
@@ -29,7 +31,7 @@ def reference_range(grid, x, y, angle, max_range):
     t_dy = abs(1.0 / dy) if dy != 0 else math.inf
     t = 0.0
     while t * res <= max_range:
-        if 0 <= ix < grid.width and 0 <= iy < grid.height and grid.solid[iy, ix]:
+        if 0 <= ix < info.width and 0 <= iy < info.height and grid.solid[iy, ix]:
             return t * res, (min(t_max_x, t_max_y) - t) * res
         if t_max_x < t_max_y:
             t, ix = t_max_x, ix + step_x
@@ -43,7 +45,7 @@ def reference_range(grid, x, y, angle, max_range):
 def random_grid(rng, w=120, h=90, fill=0.03):
     occ = np.where(rng.random((h, w)) < fill, OCCUPIED, 0).astype(np.int8)
     occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = OCCUPIED
-    return GridMap(occ, 0.05, (-1.0, -2.0))
+    return GridMap(occ, GridInfo(0.05, w, h, -1.0, -2.0))
 
 
 def test_raycast_matches_cell_traversal():
@@ -54,7 +56,8 @@ def test_raycast_matches_cell_traversal():
         grid = random_grid(rng)
         caster = RayCaster(grid, 4.094)
         x, y = -1.0 + rng.uniform(0.5, 5.5), -2.0 + rng.uniform(0.5, 4.0)
-        if grid.solid[grid.cell_of(x, y)[1], grid.cell_of(x, y)[0]]:
+        ix, iy = grid.info.world_to_cell(x, y)
+        if grid.solid[iy, ix]:
             continue
         got, cos_inc, _ = caster.cast(x, y, angles)
         ref, chord = np.array([reference_range(grid, x, y, a, 4.094) for a in angles]).T
@@ -65,7 +68,7 @@ def test_raycast_matches_cell_traversal():
         total += int(hit.sum())
         missed = hit & ~same
         mismatched += int(missed.sum())
-        clipped += int((hit & (chord < grid.resolution / 3)).sum())
+        clipped += int((hit & (chord < grid.info.resolution / 3)).sum())
         assert np.all(cos_inc >= 0) and np.all(cos_inc <= 1)
     assert total > 3000
     assert clipped > 50  # the corner cases are really exercised
@@ -76,7 +79,7 @@ def test_raycast_matches_cell_traversal():
 def test_wall_range_and_incidence_exact():
     occ = np.zeros((100, 100), dtype=np.int8)
     occ[:, 60] = OCCUPIED  # a wall whose face is at x = 60 * 0.05 = 3.0 m
-    grid = GridMap(occ, 0.05, (0.0, 0.0))
+    grid = GridMap(occ, GridInfo(0.05, occ.shape[1], occ.shape[0]))
     caster = RayCaster(grid, 4.094)
     angles = np.radians([0.0, 30.0, -45.0, 90.0, 180.0])
     r, cos_inc, cell = caster.cast(1.0, 2.5, angles)
@@ -92,7 +95,7 @@ def test_wall_range_and_incidence_exact():
 def test_beyond_max_range_is_no_return():
     occ = np.zeros((20, 200), dtype=np.int8)
     occ[:, 100] = OCCUPIED  # face at x = 5.0 m
-    grid = GridMap(occ, 0.05, (0.0, 0.0))
+    grid = GridMap(occ, GridInfo(0.05, occ.shape[1], occ.shape[0]))
     r, _, _ = RayCaster(grid, 4.094).cast(0.5, 0.5, np.array([0.0]))
     assert math.isinf(r[0])
     r, _, _ = RayCaster(grid, 4.094).cast(1.0, 0.5, np.array([0.0]))
@@ -141,7 +144,7 @@ def test_urg04lx_geometry():
 def open_room_model(**cfg):
     occ = np.zeros((120, 120), dtype=np.int8)
     occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = OCCUPIED
-    grid = GridMap(occ, 0.05, (0.0, 0.0))
+    grid = GridMap(occ, GridInfo(0.05, occ.shape[1], occ.shape[0]))
     return LaserModel(grid, LaserConfig(**cfg))
 
 

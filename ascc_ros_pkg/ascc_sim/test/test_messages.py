@@ -7,8 +7,9 @@ import sys
 import numpy as np
 import pytest
 
+from ascc_common.grid import OCCUPIED, GridInfo
 from ascc_sim import messages as M
-from ascc_sim.grid import OCCUPIED, GridMap
+from ascc_sim.grid import GridMap
 from ascc_sim.laser import LaserConfig
 from ascc_sim.people import PersonState
 from ascc_sim.world import load_world
@@ -33,7 +34,7 @@ def test_occupancy_grid_layout():
     occ = np.zeros((3, 4), dtype=np.int8)
     occ[0, 3] = OCCUPIED  # row 0 = lowest y: the first row of OccupancyGrid.data
     occ[2, 0] = -1
-    msg = M.occupancy_grid(GridMap(occ, 0.5, (-1.0, 2.0)), 0.0, "map")
+    msg = M.occupancy_grid(GridMap(occ, GridInfo(0.5, 4, 3, -1.0, 2.0)), 0.0, "map")
     assert (msg.info.width, msg.info.height, msg.info.resolution) == (4, 3, 0.5)
     assert (msg.info.origin.position.x, msg.info.origin.position.y) == (-1.0, 2.0)
     assert msg.data[3] == 100 and msg.data[8] == -1 and sum(msg.data) == 99

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from ascc_sim.grid import OCCUPIED, GridMap
+from ascc_common.grid import OCCUPIED, GridInfo
+from ascc_sim.grid import GridMap
 from ascc_sim.runner import SimRunner
 from ascc_sim.sim import RobotModel, Simulation, integrate_arc, select_robots
 from ascc_sim.world import PersonSpec, Pose2D, RobotSpec, Waypoint, World
@@ -20,7 +21,7 @@ def box_world(robots, size=(8.0, 6.0), people=(), res=0.05):
     w, h = int(round(size[0] / res)), int(round(size[1] / res))
     occ = np.zeros((h, w), dtype=np.int8)
     occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = OCCUPIED
-    grid = GridMap(occ, res, (0.0, 0.0))
+    grid = GridMap(occ, GridInfo(res, w, h))
     specs = [RobotSpec(n, n if len(robots) > 1 else "", Pose2D(x, y, yaw))
              for n, x, y, yaw in robots]
     return World("/tmp/box.yaml", "box", "/tmp/box_map.yaml", grid, specs, [], list(people))

@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from ascc_sim.grid import FREE, OCCUPIED, UNKNOWN
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+from ascc_sim.grid import GridMap
 from ascc_sim.world import WorldError, load_map, load_world
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -45,9 +46,9 @@ def test_map_server_conventions(tmp_path):
     img = np.array([[0, 254, 205],
                     [254, 254, 254]], dtype=np.uint8)
     g = load_map(write_map(tmp_path, img))
-    assert (g.width, g.height) == (3, 2)
-    assert g.resolution == pytest.approx(0.1)
-    assert (g.origin_x, g.origin_y) == (-1.0, -2.0)
+    assert (g.info.width, g.info.height) == (3, 2)
+    assert g.info.resolution == pytest.approx(0.1)
+    assert (g.info.origin_x, g.info.origin_y) == (-1.0, -2.0)
     # Bottom row (iy = 0) is the image's last row.
     assert g.occupancy[0].tolist() == [FREE, FREE, FREE]
     assert g.occupancy[1].tolist() == [OCCUPIED, FREE, UNKNOWN]
@@ -68,7 +69,7 @@ def test_map_negate_and_thresholds(tmp_path):
 def test_shipped_worlds_load(name):
     w = load_world(os.path.join(WORLDS, name + ".yaml"))
     assert w.robots, "every shipped world has a robot"
-    assert w.map.resolution == pytest.approx(0.05)
+    assert w.map.info.resolution == pytest.approx(0.05)
     for r in w.robots:
         assert w.grid.disc_contact(r.pose.x, r.pose.y, 0.165) is None
         assert w.grid.value_at(r.pose.x, r.pose.y) == FREE
@@ -76,8 +77,8 @@ def test_shipped_worlds_load(name):
 
 def test_shipped_world_contents():
     corridor = load_world(os.path.join(WORLDS, "corridor.yaml"))
-    sx, sy = corridor.map.size_m
-    assert (corridor.map.width, corridor.map.height) == (2000, 500)
+    sx, sy = corridor.map.info.size_m
+    assert (corridor.map.info.width, corridor.map.info.height) == (2000, 500)
     assert (sx, sy) == pytest.approx((100.0, 25.0))
     assert sum(o.kind == "bench" for o in corridor.objects) >= 4
 
@@ -251,3 +252,12 @@ def test_angles_in_degrees_not_confused():
             assert abs(r.pose.yaw) <= math.pi + 1e-6
         for o in w.objects:
             assert abs(o.pose.yaw) <= math.pi + 1e-3
+
+
+def test_grid_map_takes_a_matching_axis_aligned_geometry():
+    occ = np.zeros((2, 3), np.int8)
+    assert GridMap(occ, GridInfo(0.1, 3, 2, 1.0, 2.0)).info.origin_x == 1.0
+    with pytest.raises(ValueError, match="rotated"):
+        GridMap(occ, GridInfo(0.1, 3, 2, origin_yaw=0.5))
+    with pytest.raises(ValueError, match="does not match"):
+        GridMap(occ, GridInfo(0.1, 2, 3))

@@ -92,7 +92,7 @@ class RayCaster:
             raise ValueError("step_cells must be within (0, 1)")
         self.grid = grid
         self.max_range = float(max_range_m)
-        self._pad = int(math.ceil(self.max_range / grid.resolution)) + 2
+        self._pad = int(math.ceil(self.max_range / grid.info.resolution)) + 2
         padded = np.pad(grid.solid, self._pad, constant_values=False)
         self._pw = padded.shape[1]
         # One byte per cell: bit 1 = solid, bit 0 = solid or next to a solid cell (only
@@ -101,7 +101,7 @@ class RayCaster:
         self._codes = (near | (padded.astype(np.uint8) << 1)).ravel()
         self._flat = padded.ravel()
         self._step = float(step_cells)
-        n = int(math.ceil(self.max_range / grid.resolution / self._step)) + 1
+        n = int(math.ceil(self.max_range / grid.info.resolution / self._step)) + 1
         # Sample distances in cells (float32 keeps the (beams x samples) arrays small).
         self._t_cells = np.arange(1, n + 1, dtype=np.float32) * np.float32(self._step)
         self._chunk = max(1, int(chunk))
@@ -114,7 +114,7 @@ class RayCaster:
         (+inf when none within max range), |cos| of the angle between the ray and the hit
         face's normal, and the flat cell index hit (-1 when none).
         """
-        g = self.grid
+        g = self.grid.info
         n = len(angles)
         ranges = np.full(n, np.inf)
         cos_inc = np.ones(n)
@@ -127,7 +127,7 @@ class RayCaster:
         s = np.sin(angles)
         # Nothing solid lies closer than the clearance at the laser's cell (minus both
         # half diagonals): start sampling there.
-        clear_cells = g.clearance_m[int(v0), int(u0)] / g.resolution - math.sqrt(2.0)
+        clear_cells = self.grid.clearance_m[int(v0), int(u0)] / g.resolution - math.sqrt(2.0)
         k_start = max(0, int(clear_cells / self._step) - 1)
         # Padded cell coordinates are always >= 0, so a cast to int is the floor.
         k, hu_p, hv_p = self._first_hits(c.astype(np.float32), s.astype(np.float32),

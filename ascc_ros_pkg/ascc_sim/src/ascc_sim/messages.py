@@ -22,6 +22,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.grid import grid_to_msg_data
 from ascc_common.pose2d import quaternion_from_yaw
 from ascc_sim.msg import SimObject, SimObjectArray
 
@@ -75,14 +76,15 @@ def occupancy_grid(grid: GridMap, t_s: float, frame_id: str) -> OccupancyGrid:
     msg = OccupancyGrid()
     msg.header = Header(stamp=stamp(t_s), frame_id=frame_id)
     msg.info = map_metadata(grid, t_s)
-    msg.data = grid.occupancy.ravel().tolist()
+    msg.data = grid_to_msg_data(grid.occupancy)
     return msg
 
 
 def map_metadata(grid: GridMap, t_s: float) -> MapMetaData:
-    return MapMetaData(map_load_time=stamp(t_s), resolution=grid.resolution,
-                       width=grid.width, height=grid.height,
-                       origin=pose_msg(grid.origin_x, grid.origin_y, 0.0))
+    info = grid.info
+    return MapMetaData(map_load_time=stamp(t_s), resolution=info.resolution,
+                       width=info.width, height=info.height,
+                       origin=pose_msg(info.origin_x, info.origin_y, info.origin_yaw))
 
 
 def static_transform(t_s: float, parent: str, child: str, x: float, y: float, z: float,

@@ -143,10 +143,10 @@ class Simulation:
         (x, y). One lookup in the clearance of the ground-truth map, where the circles
         are rasterised; the margins cover the cell geometry and the rasterisation."""
         t = self.world.truth_map
-        ix, iy = t.cell_of(x, y)
-        if not t.in_bounds(ix, iy):
+        ix, iy = t.info.world_to_cell(x, y)
+        if not t.info.contains(ix, iy):
             return False
-        return bool(t.clearance_m[iy, ix] - t.resolution * (math.sqrt(2.0) + 1.0) > reach)
+        return bool(t.clearance_m[iy, ix] - t.info.resolution * (math.sqrt(2.0) + 1.0) > reach)
 
     def _collides(self, robot: RobotState, x: float, y: float,
                   dynamic: Sequence[Tuple[float, float, float]]) -> bool:

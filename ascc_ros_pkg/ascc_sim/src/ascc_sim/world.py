@@ -25,21 +25,18 @@ import math
 import os
 from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
-import cv2
 import numpy as np
 import yaml
 
-from .grid import FREE, OCCUPIED, UNKNOWN, GridMap, rasterize_disc, rasterize_polygon
+from ascc_common import map_io
+from ascc_common.grid import FREE, OCCUPIED
+
+from .grid import GridMap, rasterize_disc, rasterize_polygon
 
 
-class WorldError(Exception):
-    """A world or map file is malformed. ``str()`` is one line: ``file: field: message``."""
-
-    def __init__(self, path: str, field: str, message: str):
-        super().__init__("%s: %s: %s" % (path, field, message))
-        self.path = path
-        self.field = field
-        self.message = message
+class WorldError(map_io.MapError):
+    """A world or map file is malformed. ``str()`` is one line: ``file: field: message``
+    (attributes ``path``, ``field``, ``message``)."""
 
 
 class Pose2D(NamedTuple):
@@ -120,8 +117,6 @@ _WORLD_KEYS = {"name", "description", "map", "robots", "objects", "people"}
 _ROBOT_KEYS = {"name", "namespace", "pose"}
 _PERSON_KEYS = {"name", "route", "speed_mps", "radius_m", "height_m", "loop",
                 "start_delay_s", "color"}
-_MAP_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh",
-             "mode"}
 
 
 class World:
@@ -152,21 +147,20 @@ class World:
         self.dropout = np.zeros(occ.shape, dtype=np.float32)
         for obj in objects:
             if obj.solid == "outline" and len(obj.footprint) >= 3 and obj.radius_m == 0.0:
-                rasterize_polygon(occ, base_map, obj.footprint, OCCUPIED)
+                rasterize_polygon(occ, base_map.info, obj.footprint, OCCUPIED)
             if obj.laser_dropout_prob > 0.0 and len(obj.footprint) >= 3:
                 layer = np.zeros(occ.shape, dtype=np.uint8)
-                rasterize_polygon(layer, base_map, obj.footprint, 1)
+                rasterize_polygon(layer, base_map.info, obj.footprint, 1)
                 self.dropout[layer > 0] = np.maximum(self.dropout[layer > 0],
                                                      obj.laser_dropout_prob)
-        self.grid = GridMap(occ, base_map.resolution, (base_map.origin_x, base_map.origin_y))
+        self.grid = GridMap(occ, base_map.info)
         circles = [obj.circles for obj in objects if len(obj.circles)]
         self.circles = (np.concatenate(circles, axis=0) if circles
                         else np.zeros((0, 3), dtype=np.float64))
         truth = occ.copy()
         for cx, cy, r in self.circles:
-            rasterize_disc(truth, base_map, cx, cy, r, OCCUPIED)
-        self.truth_map = GridMap(truth, base_map.resolution,
-                                 (base_map.origin_x, base_map.origin_y))
+            rasterize_disc(truth, base_map.info, cx, cy, r, OCCUPIED)
+        self.truth_map = GridMap(truth, base_map.info)
 
     def robot(self, name: str) -> RobotSpec:
         for r in self.robots:
@@ -278,39 +272,19 @@ def _load_yaml(path: str, field: str = "(file)") -> Any:
 
 
 def load_map(path: str) -> GridMap:
-    """Load a ROS map_server map YAML + image (trinary or scale mode) into a GridMap."""
-    ctx = _Ctx(path)
-    doc = ctx.mapping(_load_yaml(path), "", _MAP_KEYS)
-    image = ctx.string(doc, "image", "")
-    resolution = ctx.number(doc, "resolution", "", lo=0.0, lo_open=True)
-    if "origin" not in doc:
-        raise ctx.fail("origin", "missing required field")
-    origin = ctx.vector(doc["origin"], "origin", (3,))
-    if abs(origin[2]) > 1e-9:
-        raise ctx.fail("origin", "a rotated map (origin yaw %g) is not supported; use 0"
-                       % origin[2])
-    negate = doc.get("negate", 0)
-    if negate not in (0, 1) or isinstance(negate, bool):
-        raise ctx.fail("negate", "must be 0 or 1, got %r" % (negate,))
-    occ_th = ctx.number(doc, "occupied_thresh", "", default=0.65, lo=0.0, hi=1.0)
-    free_th = ctx.number(doc, "free_thresh", "", default=0.196, lo=0.0, hi=1.0)
-    if free_th >= occ_th:
-        raise ctx.fail("free_thresh", "must be below occupied_thresh (%g >= %g)"
-                       % (free_th, occ_th))
-    ctx.string(doc, "mode", "", default="trinary", choices=("trinary", "scale"))
-    image_path = image if os.path.isabs(image) else os.path.join(os.path.dirname(path), image)
-    img = cv2.imread(image_path, cv2.IMREAD_UNCHANGED) if os.path.isfile(image_path) else None
-    if img is None:
-        raise ctx.fail("image", "cannot read image file %s" % image_path)
-    if img.ndim == 3:  # map_server averages the colour channels and ignores alpha
-        img = img[:, :, :3].mean(axis=2)
-    scale = 65535.0 if img.dtype == np.uint16 else 255.0
-    value = img.astype(np.float64) / scale
-    p_occ = value if negate else 1.0 - value
-    occ = np.full(img.shape[:2], UNKNOWN, dtype=np.int8)
-    occ[p_occ > occ_th] = OCCUPIED
-    occ[p_occ < free_th] = FREE
-    return GridMap(np.flipud(occ), resolution, origin[:2])
+    """Load a ROS map_server map (``ascc_common.map_io``; modes trinary and scale, an
+    axis-aligned origin) into a GridMap; every problem is a WorldError naming the field."""
+    try:
+        occ, info = map_io.load_map(path, modes=("trinary", "scale"))
+    except map_io.MapError as e:
+        raise WorldError(e.path, e.field, e.message) from None
+    except OSError as e:
+        raise WorldError(path, "(file)", "cannot read: %s" % (e.strerror or e)) from None
+    try:
+        info.check_axis_aligned()
+    except ValueError as e:
+        raise WorldError(path, "origin", str(e)) from None
+    return GridMap(occ, info)
 
 
 def _rotate(points: np.ndarray, pose: Pose2D) -> np.ndarray:
@@ -510,7 +484,7 @@ def _check_placement(ctx: _Ctx, world: World, radius: float) -> None:
     for i, r in enumerate(world.robots):
         f = "robots[%d].pose" % i
         x, y = r.pose.x, r.pose.y
-        if not grid.contains(x, y):
+        if not grid.info.contains(*grid.info.world_to_cell(x, y)):
             raise ctx.fail(f, "robot %r at (%.2f, %.2f) is outside the map" % (r.name, x, y))
         hit = grid.disc_contact(x, y, radius)
         if hit is not None:
@@ -528,7 +502,7 @@ def _check_placement(ctx: _Ctx, world: World, radius: float) -> None:
                 raise ctx.fail(f, "robot %r overlaps robot %r (robots[%d])"
                                % (r.name, other.name, j))
     for i, o in enumerate(world.objects):
-        if not grid.contains(o.pose.x, o.pose.y):
+        if not grid.info.contains(*grid.info.world_to_cell(o.pose.x, o.pose.y)):
             raise ctx.fail("objects[%d].pose" % i, "object %r at (%.2f, %.2f) is outside the "
                            "map" % (o.name, o.pose.x, o.pose.y))
     for i, p in enumerate(world.people):
@@ -546,7 +520,7 @@ def _check_route(ctx: _Ctx, world: World, person: PersonSpec, f: str) -> None:
                            "close to a wall or furniture" % (wp.x, wp.y, person.name))
     for k in range(len(pts) - 1):
         a, b = pts[k], pts[k + 1]
-        n = max(2, int(math.hypot(b.x - a.x, b.y - a.y) / (grid.resolution / 2)) + 1)
+        n = max(2, int(math.hypot(b.x - a.x, b.y - a.y) / (grid.info.resolution / 2)) + 1)
         for t in np.linspace(0.0, 1.0, n):
             x, y = a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)
             if grid.value_at(x, y) == OCCUPIED:
