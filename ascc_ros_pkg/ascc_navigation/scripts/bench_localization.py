@@ -24,10 +24,10 @@ import yaml
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
+from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.pose2d import wrap_angle  # noqa: E402
 from ascc_navigation import mcl  # noqa: E402
 from ascc_navigation import synthetic as syn  # noqa: E402
-from ascc_navigation.grid import OCCUPIED  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
 
 

@@ -35,10 +35,11 @@ import yaml  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
+from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.pose2d import compose  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
-from ascc_navigation.grid import OCCUPIED, GridInfo, map_agreement  # noqa: E402
+from ascc_navigation.grid import map_agreement  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
 
 CONFIG = os.path.join(HERE, "..", "config", "gmapping.yaml")
@@ -111,7 +112,7 @@ class SimWorld:
         world = load_world(os.path.join(SIM_WORLDS, name + ".yaml"))
         g = world.truth_map
         self.truth = g.occupancy
-        self.info = GridInfo(g.resolution, g.width, g.height, g.origin_x, g.origin_y)
+        self.info = g.info
         self.clearance = g.clearance_m
         with open(os.path.join(SIM_WORLDS, "..", "config", "asccbot.yaml")) as f:
             robot = yaml.safe_load(f)

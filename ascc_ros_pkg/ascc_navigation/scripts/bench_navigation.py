@@ -31,10 +31,10 @@ import yaml  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
+from ascc_common.grid import OCCUPIED, GridInfo  # noqa: E402
 from ascc_navigation import navigation as nav  # noqa: E402
 from ascc_navigation import planner as pln  # noqa: E402
 from ascc_navigation import synthetic as syn  # noqa: E402
-from ascc_navigation.grid import OCCUPIED, GridInfo  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
 
 DT = 0.1  # [s] control period (controller_frequency 10 Hz)
@@ -140,7 +140,7 @@ def load_sim_world(path):
 
     world = load_world(path, 0.165)
     m = world.truth_map
-    info = GridInfo(m.resolution, m.width, m.height, m.origin_x, m.origin_y)
+    info = m.info
     pose = world.robots[0].pose
     return m.occupancy.copy(), info, np.array([pose.x, pose.y, pose.yaw], dtype=float)
 

@@ -41,6 +41,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from bench_mapper import add_parameter_arguments, parameters_from_arguments  # noqa: E402
 
+from ascc_common.grid import FREE, UNKNOWN, GridInfo, grid_from_msg_data  # noqa: E402
 from ascc_common.pose2d import (  # noqa: E402
     compose,
     inverse,
@@ -48,13 +49,7 @@ from ascc_common.pose2d import (  # noqa: E402
     yaw_of,
 )
 from ascc_navigation import mapper as M  # noqa: E402
-from ascc_navigation.grid import (  # noqa: E402
-    FREE,
-    UNKNOWN,
-    GridInfo,
-    grid_from_msg_data,
-    map_agreement,
-)
+from ascc_navigation.grid import map_agreement  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
 
 GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading drift

@@ -38,8 +38,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
+from ascc_common.grid import FREE, OCCUPIED, grid_to_msg_data
 from ascc_navigation import synthetic as syn
-from ascc_navigation.grid import FREE, OCCUPIED, grid_to_msg_data
 from ascc_navigation.laser import LaserMount
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import Latest, wait_for, yaw_of

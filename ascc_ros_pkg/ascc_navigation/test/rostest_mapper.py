@@ -25,8 +25,9 @@ from nav_msgs.srv import GetMap
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 
+from ascc_common.grid import GridInfo, grid_from_msg_data
 from ascc_common.pose2d import compose, inverse, wrap_angle, yaw_from_quaternion
-from ascc_navigation.grid import GridInfo, grid_from_msg_data, map_agreement
+from ascc_navigation.grid import map_agreement
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import Latest, pose_of, wait_for
 

@@ -24,9 +24,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 
+from ascc_common.grid import OCCUPIED
 from ascc_common.pose2d import compose, quaternion_from_yaw
 from ascc_navigation import synthetic as S
-from ascc_navigation.grid import OCCUPIED
 from ascc_navigation.laser import LaserMount
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import Latest, wait_for

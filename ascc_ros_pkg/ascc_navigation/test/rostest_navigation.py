@@ -27,8 +27,8 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry
 
+from ascc_common.grid import OCCUPIED, GridInfo, grid_from_msg_data
 from ascc_common.pose2d import quaternion_from_yaw
-from ascc_navigation.grid import OCCUPIED, GridInfo, grid_from_msg_data
 from ascc_testing.waits import Latest, pose_of, wait_for
 
 ROBOT_RADIUS_M = 0.165  # the simulated Create (ascc_sim/config/asccbot.yaml)

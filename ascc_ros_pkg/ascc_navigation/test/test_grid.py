@@ -1,69 +1,13 @@
-"""Tests of the shared grid helpers (no ROS master needed)."""
+"""Tests of the grid algorithms (no ROS master needed); the grid type itself is tested in
+ascc_common."""
 
 import math
-from types import SimpleNamespace
 
-import cv2
 import numpy as np
 import pytest
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_navigation import grid as G
-
-
-def _msg_info(resolution, width, height, ox, oy, qz=0.0, qw=1.0):
-    return SimpleNamespace(
-        resolution=resolution, width=width, height=height,
-        origin=SimpleNamespace(position=SimpleNamespace(x=ox, y=oy, z=0.0),
-                               orientation=SimpleNamespace(x=0.0, y=0.0, z=qz, w=qw)))
-
-
-def test_world_cell_round_trip_and_bounds():
-    info = G.GridInfo(0.05, 40, 20, -1.0, 2.0)
-    ix, iy = info.world_to_cell([-1.0, -0.976, 0.999, -1.0001], [2.0, 2.049, 2.99, 2.0])
-    assert ix.tolist() == [0, 0, 39, -1]
-    assert iy.tolist() == [0, 0, 19, 0]
-    assert info.contains(ix, iy).tolist() == [True, True, True, False]
-    x, y = info.cell_to_world([0, 39], [0, 19])
-    assert np.allclose(x, [-0.975, 0.975]) and np.allclose(y, [2.025, 2.975])
-    back = info.world_to_cell(x, y)
-    assert back[0].tolist() == [0, 39] and back[1].tolist() == [0, 19]
-    assert info.xmax == pytest.approx(1.0) and info.ymax == pytest.approx(3.0)
-
-
-def test_from_bounds_covers_rectangle():
-    info = G.GridInfo.from_bounds(0.1, -1.0, -2.0, 1.05, 0.0)
-    assert info.width == 21 and info.height == 20
-    assert info.xmax >= 1.05 and info.origin_x == -1.0
-    with pytest.raises(ValueError):
-        G.GridInfo.from_bounds(0.1, 1.0, 0.0, 1.0, 1.0)
-
-
-def test_grown_keeps_world_positions_on_the_lattice():
-    info = G.GridInfo(0.05, 10, 10, 0.0, 0.0)
-    big = info.grown(3, 2, 4, 1)
-    assert (big.width, big.height) == (17, 13)
-    # the same world point maps to the old cell shifted by the growth on the low sides
-    ix, iy = info.world_to_cell(0.26, 0.31)
-    bx, by = big.world_to_cell(0.26, 0.31)
-    assert (bx - ix, by - iy) == (3, 2)
-
-
-def test_from_msg_info_duck_typed_and_rotation_rejected():
-    info = G.GridInfo.from_msg_info(_msg_info(0.05, 7, 9, 1.5, -2.0))
-    assert info.shape == (9, 7) and info.origin_x == 1.5 and info.origin_y == -2.0
-    with pytest.raises(ValueError):
-        G.GridInfo.from_msg_info(_msg_info(0.05, 7, 9, 0.0, 0.0, qz=math.sin(0.2),
-                                           qw=math.cos(0.2)))
-
-
-def test_msg_data_round_trip_row_major():
-    grid = np.array([[0, 100, -1], [100, 0, 0]], dtype=np.int8)
-    data = G.grid_to_msg_data(grid)
-    assert data == [0, 100, -1, 100, 0, 0]  # row 0 (lowest y) first
-    assert np.array_equal(G.grid_from_msg_data(data, 3, 2), grid)
-    assert np.array_equal(G.grid_from_msg_data(bytes(np.int8(data).tobytes()), 3, 2), grid)
-    with pytest.raises(ValueError):
-        G.grid_from_msg_data(data, 4, 2)
 
 
 def test_occupancy_from_counts_follows_gmapping_rule():
@@ -71,11 +15,11 @@ def test_occupancy_from_counts_follows_gmapping_rule():
     visits = np.array([0, 5, 4, 3, 4], dtype=np.uint8)
     occ = G.occupancy_from_counts(hits, visits, 0.25)
     # unknown, free (0/5), 1/4 = 0.25 is not above the threshold, 1/3 is, 3/4 is
-    assert occ.tolist() == [G.UNKNOWN, G.FREE, G.FREE, G.OCCUPIED, G.OCCUPIED]
+    assert occ.tolist() == [UNKNOWN, FREE, FREE, OCCUPIED, OCCUPIED]
 
 
 def test_sample_segments_spacing_and_cells():
-    info = G.GridInfo(0.1, 50, 50, 0.0, 0.0)
+    info = GridInfo(0.1, 50, 50, 0.0, 0.0)
     rng = np.random.default_rng(3)
     x1, y1 = rng.uniform(0.1, 4.9, 40), rng.uniform(0.1, 4.9, 40)
     xs, ys, seg = G.sample_segments(2.51, 2.47, x1, y1, 0.01, include_end=True)
@@ -102,7 +46,7 @@ def test_sample_segments_spacing_and_cells():
 
 
 def test_raycast_matches_analytic_wall_distance():
-    info = G.GridInfo(0.05, 100, 100, 0.0, 0.0)
+    info = GridInfo(0.05, 100, 100, 0.0, 0.0)
     occ = np.zeros(info.shape, dtype=bool)
     occ[:, 80] = True  # wall whose near face is at x = 4.0
     angles = np.array([0.0, 0.3, -0.5, math.pi])
@@ -114,29 +58,14 @@ def test_raycast_matches_analytic_wall_distance():
     assert G.raycast(occ, info, 4.02, 2.5, [0.0], 5.0)[0] == 0.0
 
 
-def test_load_map_yaml_trinary_and_flip(tmp_path):
-    img = np.full((4, 6), 254, dtype=np.uint8)  # free
-    img[0, :] = 0          # top image row: occupied -> last map row
-    img[3, 0] = 205        # unknown grey (p = 0.196 is not below free_thresh)
-    cv2.imwrite(str(tmp_path / "m.pgm"), img)
-    (tmp_path / "m.yaml").write_text(
-        "image: m.pgm\nresolution: 0.1\norigin: [-1.0, 2.0, 0.0]\nnegate: 0\n"
-        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    grid, info = G.load_map_yaml(str(tmp_path / "m.yaml"))
-    assert grid.shape == (4, 6) and info.resolution == 0.1
-    assert (info.origin_x, info.origin_y) == (-1.0, 2.0)
-    assert (grid[3] == G.OCCUPIED).all()
-    assert grid[0, 0] == G.UNKNOWN and grid[0, 1] == G.FREE
-
-
 def test_map_agreement_counts_and_offsets():
     truth = np.zeros((10, 10), dtype=np.int8)
-    truth[:, 0] = G.OCCUPIED
-    tinfo = G.GridInfo(0.1, 10, 10, 0.0, 0.0)
-    est = np.full((10, 10), G.UNKNOWN, dtype=np.int8)
-    est[2:8, 0] = G.OCCUPIED
-    est[2:8, 1:5] = G.FREE
-    est[2, 4] = G.OCCUPIED  # one wrong cell
+    truth[:, 0] = OCCUPIED
+    tinfo = GridInfo(0.1, 10, 10, 0.0, 0.0)
+    est = np.full((10, 10), UNKNOWN, dtype=np.int8)
+    est[2:8, 0] = OCCUPIED
+    est[2:8, 1:5] = FREE
+    est[2, 4] = OCCUPIED  # one wrong cell
     res = G.map_agreement(est, tinfo, truth, tinfo)
     assert res["known"] == 30 and res["agree"] == 29
     assert res["accuracy"] == pytest.approx(29 / 30)
@@ -151,9 +80,9 @@ def test_map_agreement_counts_and_offsets():
     iy, ix = np.indices(est.shape)
     turned = np.empty_like(est)
     turned[9 - ix, iy] = est[iy, ix]
-    res_t = G.map_agreement(turned, G.GridInfo(0.1, 10, 10, 0.0, -1.0), truth, tinfo,
+    res_t = G.map_agreement(turned, GridInfo(0.1, 10, 10, 0.0, -1.0), truth, tinfo,
                             offset=(0.0, 0.0, math.pi / 2))
     assert res_t["known"] == 30 and res_t["agree"] == 29
     # cells off the truth grid are reported, not compared
-    far = G.map_agreement(est, G.GridInfo(0.1, 10, 10, 5.0, 0.0), truth, tinfo)
+    far = G.map_agreement(est, GridInfo(0.1, 10, 10, 5.0, 0.0), truth, tinfo)
     assert far["unmatched"] == 30 and far["known"] == 0

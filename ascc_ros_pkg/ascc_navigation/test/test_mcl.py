@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
+from ascc_common.grid import OCCUPIED, GridInfo
 from ascc_common.pose2d import compose, wrap_angle
 from ascc_navigation import mcl
 from ascc_navigation import synthetic as syn
-from ascc_navigation.grid import OCCUPIED, GridInfo
 from ascc_navigation.laser import LaserMount
 
 MOUNT = LaserMount(0.1, 0.0, 0.0)

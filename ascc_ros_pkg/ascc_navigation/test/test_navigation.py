@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
+from ascc_common.grid import OCCUPIED
 from ascc_navigation import controller as ctl
 from ascc_navigation import navigation as nav
 from ascc_navigation import synthetic as syn
-from ascc_navigation.grid import OCCUPIED
 
 DT = 0.1
 

@@ -5,9 +5,9 @@ import heapq
 import numpy as np
 import pytest
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_navigation import planner as pln
 from ascc_navigation import synthetic as syn
-from ascc_navigation.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 
 
 def _reference_dijkstra(costmap: pln.Costmap, goal):

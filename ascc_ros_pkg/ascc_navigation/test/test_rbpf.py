@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from ascc_common import pose2d as P
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_navigation import grid as G
 from ascc_navigation import mapper as M
 from ascc_navigation import rbpf as R
@@ -19,7 +20,7 @@ MOUNT = LaserMount(0.05, 0.0, 0.0)
 
 def _room_scan(pose, mount=MOUNT, world=None, noise=0.0, seed=0):
     truth, info = world if world is not None else S.office_world()
-    return S.simulate_scan(truth == G.OCCUPIED, info, pose, mount, SPEC,
+    return S.simulate_scan(truth == OCCUPIED, info, pose, mount, SPEC,
                            np.random.default_rng(seed), noise_std=noise)
 
 
@@ -64,9 +65,9 @@ def test_prepare_scan_offsets_lskip_and_gaps():
 def test_free_space_pulls_back_more_where_a_beam_grazes_a_wall():
     # a wall along x at y = 1 m: the beam straight at it (90 deg) is head-on, beams at a
     # shallow angle graze it; the free wedge must stop ~one cell short *perpendicular* to it
-    info = G.GridInfo.from_bounds(0.05, -5.0, -1.0, 5.0, 3.0)
+    info = GridInfo.from_bounds(0.05, -5.0, -1.0, 5.0, 3.0)
     truth = np.zeros(info.shape, dtype=np.int8)
-    truth[info.world_to_cell(0.0, 1.0)[1]:, :] = G.OCCUPIED
+    truth[info.world_to_cell(0.0, 1.0)[1]:, :] = OCCUPIED
     mount = LaserMount()
     r = _room_scan(np.zeros(3), mount=mount, world=(truth, info))
     sc = _prepare(r, mount=mount, free_pullback=0.05)
@@ -145,7 +146,7 @@ def test_register_marks_walls_free_space_and_unknown():
     truth, tinfo = world
     pose = np.array([2.0, 2.0, 0.3])
     sc = _prepare(_room_scan(pose, world=world), free_pullback=0.05, hit_offset=0.025)
-    maps = R.ParticleMaps(2, G.GridInfo.from_bounds(0.05, 0.0, 0.0, 14.0, 10.0))
+    maps = R.ParticleMaps(2, GridInfo.from_bounds(0.05, 0.0, 0.0, 14.0, 10.0))
     maps.register(np.array([pose, pose]), sc)
     occ = maps.occupancy(0, 0.25)
     assert np.array_equal(occ, maps.occupancy(1, 0.25))
@@ -153,13 +154,13 @@ def test_register_marks_walls_free_space_and_unknown():
     assert res["accuracy"] > 0.97 and res["occupied_cells"] > 100
     # the robot's own cell is free, a cell behind the central block's wall is unknown
     ix, iy = maps.info.world_to_cell([2.1, 6.0], [2.0, 4.5])
-    assert occ[iy[0], ix[0]] == G.FREE and occ[iy[1], ix[1]] == G.UNKNOWN
+    assert occ[iy[0], ix[0]] == FREE and occ[iy[1], ix[1]] == UNKNOWN
 
 
 def test_counts_once_per_scan_and_saturate_without_changing_the_map():
     pose = np.array([[2.0, 2.0, 0.0]])
     sc = _prepare(_room_scan(pose[0]), free_pullback=0.05, hit_offset=0.025)
-    maps = R.ParticleMaps(1, G.GridInfo.from_bounds(0.05, 0.0, 0.0, 14.0, 10.0))
+    maps = R.ParticleMaps(1, GridInfo.from_bounds(0.05, 0.0, 0.0, 14.0, 10.0))
     maps.register(pose, sc)
     assert maps.visits.max() == 1 and maps.hits.max() == 1  # many beams, one count per scan
     first = maps.occupancy(0, 0.25)
@@ -170,7 +171,7 @@ def test_counts_once_per_scan_and_saturate_without_changing_the_map():
 
 
 def test_map_grows_and_keeps_content_in_place():
-    maps = R.ParticleMaps(2, G.GridInfo.from_bounds(0.05, 0.0, 0.0, 2.0, 2.0))
+    maps = R.ParticleMaps(2, GridInfo.from_bounds(0.05, 0.0, 0.0, 2.0, 2.0))
     maps.hits[1, 10, 20] = 3
     maps.visits[1, 10, 20] = 4
     wx, wy = maps.info.cell_to_world(20, 10)
@@ -234,9 +235,9 @@ def test_wide_heading_search_leaves_good_matches_alone():
 
 def test_motion_prior_keeps_pose_in_an_unconstrained_direction():
     # A featureless corridor along x: the scan cannot tell x, so the prior must hold it.
-    info = G.GridInfo.from_bounds(0.05, 0.0, 0.0, 40.0, 3.0)
+    info = GridInfo.from_bounds(0.05, 0.0, 0.0, 40.0, 3.0)
     truth = np.zeros(info.shape, dtype=np.int8)
-    truth[[0, -1], :] = G.OCCUPIED
+    truth[[0, -1], :] = OCCUPIED
     world = (truth, info)
     cfg = R.RbpfConfig(particles=8, xmin=0, ymin=0, xmax=40, ymax=3)
     slam = R.RbpfSlam(cfg, seed=3)
@@ -376,7 +377,7 @@ def test_mapping_a_loop_of_the_synthetic_office():
     odom = S.noisy_odometry(traj, rng)
     mapper = _mapper(particles=15, xmin=0.0, ymin=0.0, xmax=6.0, ymax=4.0, lskip=2)
     for k in range(0, traj.shape[0], 2):
-        scan = S.simulate_scan(truth == G.OCCUPIED, tinfo, traj[k], MOUNT, SPEC, rng)
+        scan = S.simulate_scan(truth == OCCUPIED, tinfo, traj[k], MOUNT, SPEC, rng)
         out = mapper.handle_scan(_scan_input(0.1 * k, scan), odom[k], MOUNT)
         assert out.status in (M.STARTED, M.UPDATED, M.SKIPPED)
     est, einfo = mapper.occupancy()

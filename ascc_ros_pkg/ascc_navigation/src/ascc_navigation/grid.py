@@ -1,131 +1,20 @@
-"""Occupancy-grid helpers shared by the mapper, the localizer and the navigator.
+"""Grid algorithms of the mapper, the localizer and the navigator: gmapping's cell rule,
+sampling along segments, ray casting, and map-vs-truth agreement.
 
-No ROS imports: message objects are read duck-typed (``info.resolution``, ``info.width``,
-``info.origin.position.x`` ...), so ``nav_msgs`` messages and plain stand-ins both work.
-
-Conventions (those of ``nav_msgs/OccupancyGrid``):
-  * a grid is a 2-D array indexed ``[iy, ix]``; row 0 is the row at ``origin_y``;
-  * cell ``(ix, iy)`` covers ``[origin_x + ix*res, origin_x + (ix+1)*res)`` in x, same in y;
-  * values -1 = unknown, 0 = free, 100 = occupied (``UNKNOWN``, ``FREE``, ``OCCUPIED``).
-The origin's rotation must be zero (what map_server and gmapping produce).
+Grids, their geometry (``GridInfo``) and cell values come from ``ascc_common.grid``
+(arrays indexed ``[iy, ix]``, row 0 at the origin). No ROS imports.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from typing import Optional, Tuple
 
-import cv2
 import numpy as np
 
-UNKNOWN = -1
-FREE = 0
-OCCUPIED = 100
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+
 RAYCAST_BISECT_STEPS = 6  # refinement of ray-cast ranges: step / 64
-
-
-class GridInfo:
-    """Geometry of a grid: resolution [m/cell], size [cells] and the world pose of cell (0, 0)."""
-
-    __slots__ = ("resolution", "width", "height", "origin_x", "origin_y")
-
-    def __init__(self, resolution: float, width: int, height: int,
-                 origin_x: float = 0.0, origin_y: float = 0.0):
-        if not (resolution > 0.0 and math.isfinite(resolution)):
-            raise ValueError("grid resolution must be a positive number, got %r" % resolution)
-        if width < 0 or height < 0:
-            raise ValueError("grid size must not be negative, got %dx%d" % (width, height))
-        self.resolution = float(resolution)
-        self.width = int(width)
-        self.height = int(height)
-        self.origin_x = float(origin_x)
-        self.origin_y = float(origin_y)
-
-    @classmethod
-    def from_msg_info(cls, info) -> GridInfo:
-        """From a ``nav_msgs/MapMetaData`` (duck-typed). Raises ValueError on a rotated origin."""
-        q = info.origin.orientation
-        yaw = 2.0 * math.atan2(q.z, q.w) if (q.x == 0.0 and q.y == 0.0) else float("nan")
-        if not abs(yaw) < 1e-6:
-            raise ValueError("rotated map origins are not supported (origin orientation "
-                             "%.3f %.3f %.3f %.3f)" % (q.x, q.y, q.z, q.w))
-        return cls(info.resolution, info.width, info.height,
-                   info.origin.position.x, info.origin.position.y)
-
-    @classmethod
-    def from_bounds(cls, resolution: float, xmin: float, ymin: float,
-                    xmax: float, ymax: float) -> GridInfo:
-        """Smallest grid whose cells cover the rectangle [xmin, xmax] x [ymin, ymax] [m]."""
-        if not (xmax > xmin and ymax > ymin):
-            raise ValueError("empty bounds x[%g, %g] y[%g, %g]" % (xmin, xmax, ymin, ymax))
-        width = int(math.ceil((xmax - xmin) / resolution))
-        height = int(math.ceil((ymax - ymin) / resolution))
-        return cls(resolution, width, height, xmin, ymin)
-
-    @property
-    def shape(self) -> Tuple[int, int]:
-        """numpy shape ``(height, width)`` of arrays on this grid."""
-        return (self.height, self.width)
-
-    @property
-    def xmax(self) -> float:
-        return self.origin_x + self.width * self.resolution
-
-    @property
-    def ymax(self) -> float:
-        return self.origin_y + self.height * self.resolution
-
-    def world_to_cell(self, x, y) -> Tuple[np.ndarray, np.ndarray]:
-        """Cell indices ``(ix, iy)`` (int64, possibly outside the grid) of world points [m]."""
-        ix = np.floor((np.asarray(x, dtype=float) - self.origin_x) / self.resolution)
-        iy = np.floor((np.asarray(y, dtype=float) - self.origin_y) / self.resolution)
-        return ix.astype(np.int64), iy.astype(np.int64)
-
-    def cell_to_world(self, ix, iy) -> Tuple[np.ndarray, np.ndarray]:
-        """World coordinates [m] of cell centres."""
-        x = self.origin_x + (np.asarray(ix, dtype=float) + 0.5) * self.resolution
-        y = self.origin_y + (np.asarray(iy, dtype=float) + 0.5) * self.resolution
-        return x, y
-
-    def contains(self, ix, iy) -> np.ndarray:
-        """Boolean mask: which cells lie inside the grid."""
-        ix = np.asarray(ix)
-        iy = np.asarray(iy)
-        return (ix >= 0) & (ix < self.width) & (iy >= 0) & (iy < self.height)
-
-    def grown(self, left: int, bottom: int, right: int, top: int) -> GridInfo:
-        """The grid enlarged by whole cells on each side (origin stays on the same lattice)."""
-        return GridInfo(self.resolution, self.width + left + right, self.height + bottom + top,
-                        self.origin_x - left * self.resolution,
-                        self.origin_y - bottom * self.resolution)
-
-    def same_geometry(self, other: GridInfo, tol: float = 1e-9) -> bool:
-        return (self.width == other.width and self.height == other.height
-                and abs(self.resolution - other.resolution) <= tol
-                and abs(self.origin_x - other.origin_x) <= tol
-                and abs(self.origin_y - other.origin_y) <= tol)
-
-    def __repr__(self) -> str:
-        return ("GridInfo(resolution=%g, width=%d, height=%d, origin=(%g, %g))"
-                % (self.resolution, self.width, self.height, self.origin_x, self.origin_y))
-
-
-def grid_from_msg_data(data, width: int, height: int) -> np.ndarray:
-    """``OccupancyGrid.data`` (sequence or bytes of int8) -> int8 array of shape (height, width)."""
-    if isinstance(data, (bytes, bytearray)):
-        arr = np.frombuffer(data, dtype=np.int8)
-    else:
-        arr = np.asarray(data, dtype=np.int8)
-    if arr.size != width * height:
-        raise ValueError("map data has %d cells, expected %d x %d = %d"
-                         % (arr.size, width, height, width * height))
-    return arr.reshape(height, width).copy()
-
-
-def grid_to_msg_data(grid: np.ndarray) -> list:
-    """int8 grid (height, width) -> the flat list ``OccupancyGrid.data`` wants (row-major)."""
-    return np.ascontiguousarray(grid, dtype=np.int8).ravel().tolist()
 
 
 def occupancy_from_counts(hits: np.ndarray, visits: np.ndarray, occ_thresh: float) -> np.ndarray:
@@ -204,37 +93,6 @@ def raycast(occupied: np.ndarray, info: GridInfo, x: float, y: float, angles,
         hi = np.where(occ, mid, hi)
         lo = np.where(occ, lo, mid)
     return np.where(found & (first > 0), hi, np.where(found, 0.0, np.inf))
-
-
-def load_map_yaml(path: str) -> Tuple[np.ndarray, GridInfo]:
-    """Read a map_server map (YAML + image) into an int8 -1/0/100 grid and its GridInfo.
-
-    Follows map_server's trinary interpretation: p = (255 - v)/255 (or v/255 with
-    ``negate: 1``); p > occupied_thresh -> 100, p < free_thresh -> 0, else -1. The image's
-    top row is the map's last row (map_server flips it).
-    """
-    import yaml  # only this loader needs PyYAML
-
-    with open(path) as f:
-        meta = yaml.safe_load(f)
-    image_path = meta["image"]
-    if not os.path.isabs(image_path):
-        image_path = os.path.join(os.path.dirname(os.path.abspath(path)), image_path)
-    img = cv2.imread(image_path, cv2.IMREAD_GRAYSCALE)
-    if img is None:
-        raise OSError("cannot read map image %s" % image_path)
-    value = img.astype(np.float64) / 255.0
-    occ_p = value if int(meta.get("negate", 0)) else 1.0 - value
-    grid = np.full(img.shape, UNKNOWN, dtype=np.int8)
-    grid[occ_p > float(meta.get("occupied_thresh", 0.65))] = OCCUPIED
-    grid[occ_p < float(meta.get("free_thresh", 0.196))] = FREE
-    grid = np.flipud(grid).copy()
-    origin = meta.get("origin", [0.0, 0.0, 0.0])
-    if len(origin) > 2 and abs(float(origin[2])) > 1e-6:
-        raise ValueError("rotated map origins are not supported (%s)" % path)
-    info = GridInfo(float(meta["resolution"]), grid.shape[1], grid.shape[0],
-                    float(origin[0]), float(origin[1]))
-    return grid, info
 
 
 def map_agreement(estimate: np.ndarray, est_info: GridInfo, truth: np.ndarray,

@@ -14,8 +14,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.grid import GridInfo
 from ascc_common.pose2d import compose, inverse, relative
-from ascc_navigation.grid import GridInfo
 from ascc_navigation.laser import LaserMount, prepare_scan
 from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
 

@@ -26,8 +26,8 @@ from typing import Mapping, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
+from ascc_common.grid import GridInfo
 from ascc_common.pose2d import compose, inverse, wrap_angle
-from ascc_navigation.grid import GridInfo
 from ascc_navigation.laser import LaserMount
 
 OCCUPIED_MIN = 65  # occupancy value [0..100] from which a cell counts as an obstacle
@@ -82,7 +82,7 @@ class LikelihoodField:
         if grid.shape != info.shape or grid.size == 0:
             raise ValueError("occupancy grid of shape %s does not match %r"
                              % (grid.shape, info))
-        self.info = info
+        self.info = info.check_axis_aligned()
         self.shape = grid.shape
         self.resolution = info.resolution
         occupied = grid >= OCCUPIED_MIN

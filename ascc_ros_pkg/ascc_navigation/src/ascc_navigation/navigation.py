@@ -29,11 +29,11 @@ from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
+from ascc_common.grid import GridInfo
 from ascc_common.pose2d import transform_points, z_axis_from_quaternion
 from ascc_common.pose2d import yaw_from_quaternion as _yaw
 from ascc_navigation import controller as ctl
 from ascc_navigation import planner as pln
-from ascc_navigation.grid import GridInfo
 
 IDLE = "idle"
 ACTIVE = "active"
@@ -141,7 +141,9 @@ class Navigator:
 
     # -- inputs ---------------------------------------------------------------------
     def set_map(self, grid: np.ndarray, info: GridInfo) -> None:
-        """A new or updated map (int8 -1/0/100 grid); the path is re-planned on it."""
+        """A new or updated map (int8 -1/0/100 grid); the path is re-planned on it.
+        ValueError for a rotated map (planning works on axis-aligned grids)."""
+        info.check_axis_aligned()
         stamp = 0 if self.map is None else self.map.stamp + 1
         self.map = _MapData(np.asarray(grid), info, stamp)
 

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from ascc_navigation.grid import GridInfo
+from ascc_common.grid import GridInfo
 
 OCCUPIED_MIN = 65  # occupancy value [0..100] from which a map cell is an obstacle
 UNIT = 1000  # integer cost of one straight step over a free cell
@@ -79,6 +79,7 @@ class Costmap:
         grid = np.asarray(grid)
         if grid.shape != info.shape or grid.size == 0:
             raise ValueError("occupancy grid of shape %s does not match %r" % (grid.shape, info))
+        info.check_axis_aligned()
         map_resolution = info.resolution
         occupied = grid >= OCCUPIED_MIN
         if obstacles is not None and len(obstacles):

@@ -38,8 +38,9 @@ from typing import Optional, Tuple
 import cv2
 import numpy as np
 
+from ascc_common.grid import GridInfo
 from ascc_common.pose2d import compose, wrap_angle
-from ascc_navigation.grid import GridInfo, occupancy_from_counts
+from ascc_navigation.grid import occupancy_from_counts
 from ascc_navigation.laser import PreparedScan
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
@@ -190,7 +191,7 @@ class ParticleMaps:
     """Stacked per-particle count grids (hits, visits), shape (N, H, W) uint8, on ``info``."""
 
     def __init__(self, n: int, info: GridInfo):
-        self.info = info
+        self.info = info.check_axis_aligned()
         self.hits = np.zeros((n,) + info.shape, dtype=np.uint8)
         self.visits = np.zeros((n,) + info.shape, dtype=np.uint8)
 

@@ -12,8 +12,9 @@ from typing import List, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.grid import FREE, OCCUPIED, GridInfo
 from ascc_common.pose2d import compose, relative, wrap_angle
-from ascc_navigation.grid import FREE, OCCUPIED, GridInfo, raycast
+from ascc_navigation.grid import raycast
 from ascc_navigation.laser import LaserMount
 
 # Hokuyo URG-04LX as in the thesis (section 2.2): 240 deg field of view, 0.36 deg steps
