@@ -75,14 +75,15 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
 def map_check(run_dir, world):
     """Share of the final SLAM map's known cells that agree with the world's ground truth
     (cells off the truth's known area count as disagreeing); None without a saved map."""
-    from ascc_navigation.grid import load_map_yaml, map_agreement
+    from ascc_common.map_io import load_map
+    from ascc_navigation.grid import map_agreement
 
     explored = os.path.join(run_dir, "summary_explored.yaml")
     if not os.path.exists(explored):
         return None
-    est, est_info = load_map_yaml(explored)  # saved in the truth's frame (report.compose)
-    truth, truth_info = load_map_yaml(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
-                                                   "maps", world + ".yaml"))
+    est, est_info = load_map(explored)  # saved in the truth's frame (report.compose)
+    truth, truth_info = load_map(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
+                                              "maps", world + ".yaml"))
     a = map_agreement(est, est_info, truth, truth_info)
     total = a["known"] + a["unmatched"]
     return a["agree"] / total if total else None

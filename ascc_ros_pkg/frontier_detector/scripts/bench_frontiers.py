@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from frontier_detector.grid import MapInfo
+from ascc_common.grid import GridInfo
 from frontier_detector.planner import PlannerParams, plan
 from frontier_detector.synthetic import first_free_cell_near, office_building, partially_explored
 
@@ -65,8 +65,8 @@ def make_map(n: int, seed: int, explored: float):
 
 
 def time_python(grid, robot, repeat: int):
-    info = MapInfo(RESOLUTION)
-    xy = info.cells_to_world(np.array([robot[0]]), np.array([robot[1]]))
+    info = GridInfo(RESOLUTION, grid.shape[1], grid.shape[0])
+    xy = info.cell_to_world(np.array([robot[1]]), np.array([robot[0]]))
     params = PlannerParams()
     best = None
     for _ in range(repeat):

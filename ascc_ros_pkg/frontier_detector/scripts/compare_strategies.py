@@ -20,9 +20,9 @@ import sys
 import numpy as np
 import yaml
 
+from ascc_common.map_io import load_map
 from frontier_detector import offline
 from frontier_detector.frontiers import traversable_mask
-from frontier_detector.grid import load_map_yaml
 from frontier_detector.planner import PlannerParams
 from frontier_detector.report import (
     reachable_area,
@@ -54,8 +54,7 @@ def starts(name: str, truth, info, seeds: int, clearance: float):
     rows, cols = np.nonzero(ok)
     for seed in range(1, seeds):
         k = np.random.default_rng(seed).integers(rows.size)
-        x, y = info.cells_to_world(rows[k: k + 1], cols[k: k + 1])
-        out.append((float(x[0]), float(y[0])))
+        out.append(info.cell_to_world(int(cols[k]), int(rows[k])))
     return out
 
 
@@ -82,7 +81,7 @@ def main() -> int:
     print("world     strategy  runs  path_m  p90_m  p95_m  p99_m  t90_s  t95_s  t99_s  final%"
           "  goals  bad")
     for name in args.worlds:
-        truth, info = load_map_yaml(os.path.join(worlds_dir(), "maps", name + ".yaml"))
+        truth, info = load_map(os.path.join(worlds_dir(), "maps", name + ".yaml"))
         poses = starts(name, truth, info, args.seeds, 0.18)
         curves = {}
         for strategy in args.strategies:

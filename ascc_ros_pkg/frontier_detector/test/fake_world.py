@@ -40,8 +40,8 @@ from move_base_msgs.msg import MoveBaseAction
 from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import String
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from frontier_detector.frontiers import traversable_mask
-from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
 from frontier_detector.report import scan_truth
 
 RES = 0.05
@@ -62,7 +62,7 @@ def build_world():
     t[100:120, 30:45] = OCCUPIED                             # furniture
     t[120:140, 150:170] = OCCUPIED
     t[60:70, 200:230] = OCCUPIED
-    return t, MapInfo(RES)
+    return t, GridInfo(RES, w, h)
 
 
 class FakeWorld:
@@ -98,7 +98,8 @@ class FakeWorld:
         rospy.Timer(rospy.Duration(0.05), self._tf)
 
     def _observe(self, xy=None):
-        rc = self.info.world_to_cell(*(xy or self.pose))
+        ix, iy = self.info.world_to_cell(*(xy or self.pose))
+        rc = (iy, ix)
         # all round: 361 rays from -pi to pi are the 360 directions 1 deg apart
         scan_truth(self.truth, self.known, rc, 0.0, self.range_cells, 2.0 * math.pi, 361)
         data = self.known.copy()
@@ -148,7 +149,7 @@ class FakeWorld:
 
     def _execute(self, goal):
         p = goal.target_pose.pose.position
-        r, c = self.info.world_to_cell(p.x, p.y)
+        c, r = self.info.world_to_cell(p.x, p.y)
         ok = (goal.target_pose.header.frame_id == "map" and 0 <= r < self.truth.shape[0]
               and 0 <= c < self.truth.shape[1] and self.trav[r, c]
               and self.known[r, c] == FREE)

@@ -8,9 +8,9 @@ from geometry_msgs.msg import Quaternion
 from nav_msgs.msg import OccupancyGrid
 from visualization_msgs.msg import Marker
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from frontier_detector import cli
-from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
 from frontier_detector.planner import plan
 from frontier_detector.rosmsg import grid_from_msg, plan_markers
 
@@ -70,7 +70,7 @@ def test_grid_from_msg_thresholds_cartographer_values():
 def test_markers_show_every_phase_and_the_goal():
     g = np.full((40, 200), FREE, np.int8)
     g[20:, :] = UNKNOWN
-    info = MapInfo(0.05)
+    info = GridInfo(0.05, 200, 40)
     result = plan(g, info, (5.0, 0.25))
     arr = plan_markers(result, "map", None, (5.0, 0.25), [(1.0, 1.0)], max_points=50)
     by_ns = {}
@@ -97,7 +97,7 @@ def test_goal_faces_its_frontier():
 
     g = np.full((40, 200), FREE, np.int8)
     g[20:, :] = UNKNOWN                                # frontier north (+y) of the robot
-    result = plan(g, MapInfo(0.05), (5.0, 0.25))
+    result = plan(g, GridInfo(0.05, g.shape[1], g.shape[0]), (5.0, 0.25))
     assert result.goal_yaw == pytest.approx(math.pi / 2, abs=0.2)
     ps = goal_pose("map", None, result.goal_xy, (5.0, 0.25), result.goal_yaw)
     assert yaw_of(ps.pose.orientation) == pytest.approx(result.goal_yaw)

@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from frontier_detector import explorer as ex
-from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
 
 RES = 0.05
-INFO = MapInfo(RES)
+INFO = GridInfo(RES, 300, 40)
 
 
 def corridor_map():
@@ -179,8 +179,9 @@ def test_bad_robot_pose_sends_nothing():
     empty = np.full((10, 10), UNKNOWN, np.int8)
     d = c.step(2.0, empty, INFO, (0.2, 0.2), 3, True)
     assert d.action == ex.NONE and d.status == "empty_map"
-    # A 0 x 0 map with resolution 0 (an uninitialised OccupancyGrid), a NaN pose.
-    d = c.step(3.0, np.zeros((0, 0), np.int8), MapInfo(0.0), (0.0, 0.0), 4, True)
+    # A 0 x 0 map (an uninitialised OccupancyGrid's resolution 0 is refused earlier, by
+    # GridInfo.from_msg_info), a NaN pose.
+    d = c.step(3.0, np.zeros((0, 0), np.int8), GridInfo(RES, 0, 0), (0.0, 0.0), 4, True)
     assert d.action == ex.NONE and d.status == "empty_map"
     d = c.step(4.0, corridor_map(), INFO, (float("nan"), 1.0), 5, True)
     assert d.action == ex.NONE and d.status == "robot_outside_map"

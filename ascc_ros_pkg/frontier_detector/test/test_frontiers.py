@@ -4,6 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
 from frontier_detector.frontiers import (
     STATUS_EMPTY_MAP,
     STATUS_NO_FRONTIERS,
@@ -17,7 +18,6 @@ from frontier_detector.frontiers import (
     phase1_mask,
     traversable_mask,
 )
-from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN
 
 RES = 0.05
 

@@ -1,4 +1,5 @@
-"""Unit tests of the map thresholding rule, map_server files, coverage and the writers."""
+"""Unit tests of coverage and the writers (the thresholding rule and map_server files are
+tested in ascc_common)."""
 
 import math
 import os
@@ -7,15 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from frontier_detector.grid import (
-    FREE,
-    OCCUPIED,
-    UNKNOWN,
-    MapInfo,
-    load_map_yaml,
-    save_map_yaml,
-    to_trinary,
-)
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from frontier_detector.report import (
     ExplorationRecord,
     LaserGeometry,
@@ -29,75 +22,12 @@ from frontier_detector.report import (
 )
 
 
-def test_thresholding_rule():
-    raw = np.array([-1, 0, 19, 20, 50, 64, 65, 99, 100, 101, 127, -2, -128], np.int8)
-    out, counts = to_trinary(raw)
-    assert out.tolist() == [UNKNOWN, FREE, FREE, UNKNOWN, UNKNOWN, UNKNOWN, OCCUPIED,
-                            OCCUPIED, OCCUPIED, UNKNOWN, UNKNOWN, UNKNOWN, UNKNOWN]
-    assert counts == {"non_trinary": 10, "invalid": 4}
-    out2, counts2 = to_trinary(raw, free_max=30, occupied_min=50)
-    assert out2[3] == FREE and out2[4] == OCCUPIED
-    clean, c = to_trinary(np.array([[-1, 0], [100, 0]], np.int8))
-    assert c == {"non_trinary": 0, "invalid": 0} and clean.shape == (2, 2)
-    with pytest.raises(ValueError):
-        to_trinary(raw, free_max=70, occupied_min=60)
-
-
-def test_map_info_round_trip_with_rotation():
-    info = MapInfo(0.1, origin_x=2.0, origin_y=-1.0, origin_yaw=math.pi / 2)
-    x, y = info.cells_to_world(np.array([3]), np.array([5]))
-    # col 5 -> grid x 0.55, row 3 -> grid y 0.35, rotated by 90 deg.
-    assert x[0] == pytest.approx(2.0 - 0.35) and y[0] == pytest.approx(-1.0 + 0.55)
-    assert info.world_to_cell(x[0], y[0]) == (3, 5)
-    rr, cc = info.world_to_cells(x, y)
-    assert (rr[0], cc[0]) == (3, 5)
-
-
-def test_map_server_files_round_trip(tmp_path):
-    g = np.full((12, 20), UNKNOWN, np.int8)
-    g[2:10, 2:15] = FREE
-    g[2, 2:15] = OCCUPIED
-    info = MapInfo(0.05, -1.0, 3.0, 0.0)
-    path = str(tmp_path / "m.yaml")
-    save_map_yaml(path, g, info)
-    g2, info2 = load_map_yaml(path)
-    assert np.array_equal(g, g2) and info2 == info
-    # Image row 0 is the top of the map (max y), grid row 0 the origin.
-    img = cv2.imread(str(tmp_path / "m.pgm"), cv2.IMREAD_GRAYSCALE)
-    assert img[-1 - 2, 5] == 0 and img[0, 0] == 205
-
-
-def test_map_server_negate_and_scale(tmp_path):
-    img = np.array([[0, 128, 255]], np.uint8)
-    cv2.imwrite(str(tmp_path / "n.pgm"), img)
-    (tmp_path / "n.yaml").write_text(
-        "image: n.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 1\n"
-        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    g, _ = load_map_yaml(str(tmp_path / "n.yaml"))
-    assert g.tolist() == [[FREE, UNKNOWN, OCCUPIED]]
-    (tmp_path / "s.yaml").write_text(
-        "image: n.pgm\nresolution: 0.1\nmode: scale\nnegate: 0\n")
-    g, _ = load_map_yaml(str(tmp_path / "s.yaml"))
-    assert g.tolist() == [[OCCUPIED, UNKNOWN, FREE]]
-
-
-def test_bad_map_files(tmp_path):
-    with pytest.raises(OSError):
-        load_map_yaml(str(tmp_path / "missing.yaml"))
-    (tmp_path / "x.yaml").write_text("image: nothere.pgm\nresolution: 0.05\n")
-    with pytest.raises(ValueError):
-        load_map_yaml(str(tmp_path / "x.yaml"))
-    (tmp_path / "y.yaml").write_text("just text\n")
-    with pytest.raises(ValueError):
-        load_map_yaml(str(tmp_path / "y.yaml"))
-
-
 def two_rooms():
     t = np.full((40, 80), OCCUPIED, np.int8)
     t[1:-1, 1:39] = FREE                               # west room
     t[1:-1, 41:-1] = FREE                              # east room
     t[15:25, 39:41] = FREE                             # door 0.5 m
-    return t, MapInfo(0.05)
+    return t, GridInfo(0.05, 80, 40)
 
 
 def test_reachable_area_and_coverage():
@@ -120,13 +50,14 @@ def test_reachable_area_and_coverage():
     assert coverage(t, info, t, info, start) == pytest.approx(1.0)
     # Explored map at another origin/resolution still lines up with the truth.
     coarse = cv2.resize(t, (40, 20), interpolation=cv2.INTER_NEAREST)
-    c = coverage(coarse, MapInfo(0.1), t, info, start, 0.18)
+    c = coverage(coarse, GridInfo(0.1, 40, 20), t, info, start, 0.18)
     assert c > 0.95
     assert coverage(explored, info, t, info, (50.0, 50.0)) == 0.0   # start off the map
 
 
 def seen_at(area, x, y):
-    return area.known[area.info.world_to_cell(x, y)] != UNKNOWN
+    ix, iy = area.info.world_to_cell(x, y)
+    return area.known[iy, ix] != UNKNOWN
 
 
 def test_seen_area_field_of_view_walls_and_range():
@@ -206,7 +137,7 @@ def test_compose_and_exploration_record(tmp_path):
 
     t, info = two_rooms()
     # A map frame sitting at (1, 0.5) rotated by 90 deg inside the truth frame.
-    moved = compose((1.0, 0.5, math.pi / 2), MapInfo(0.05, 0.2, 0.0, 0.0))
+    moved = compose((1.0, 0.5, math.pi / 2), GridInfo(0.05, 80, 40, 0.2, 0.0, 0.0))
     assert (moved.origin_x, moved.origin_y) == pytest.approx((1.0, 0.7))
     assert moved.origin_yaw == pytest.approx(math.pi / 2)
     rec = ExplorationRecord(t, info, (0.5, 1.0), 0.18, label="unit")

@@ -4,8 +4,8 @@ coverage, no goal in a wall, the loop ends by itself, and the path helpers."""
 import numpy as np
 import pytest
 
+from ascc_common.grid import GridInfo
 from frontier_detector import offline
-from frontier_detector.grid import MapInfo
 from frontier_detector.report import path_length
 from frontier_detector.synthetic import first_free_cell_near, office_building
 
@@ -15,10 +15,9 @@ RES = 0.05
 @pytest.fixture(scope="module")
 def office():
     truth = office_building(14.0, RES, seed=7, rooms_between_halls=2)
-    info = MapInfo(RES)
+    info = GridInfo(RES, truth.shape[1], truth.shape[0])
     r, c = first_free_cell_near(truth, 30, 140)
-    x, y = info.cells_to_world(np.array([r]), np.array([c]))
-    return truth, info, (float(x[0]), float(y[0]))
+    return truth, info, info.cell_to_world(c, r)
 
 
 @pytest.mark.parametrize("strategy", ["utility", "nearest"])
@@ -39,4 +38,4 @@ def test_backtracked_path_avoids_walls(office):
     run = offline.run(truth, info, start, "utility",
                       offline.OfflineParams(max_goals=3))
     cells = [info.world_to_cell(x, y) for x, y in run.trajectory]
-    assert all(truth[r, c] == 0 for r, c in cells)
+    assert all(truth[iy, ix] == 0 for ix, iy in cells)

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from frontier_detector.frontiers import FrontierParams, traversable_mask
-from frontier_detector.grid import FREE, OCCUPIED, UNKNOWN, MapInfo
 from frontier_detector.paths import block_size, build_graph, path_lengths
 from frontier_detector.planner import STATUS_ALL_BLACKLISTED, PlannerParams, plan
 from frontier_detector.scenario import CORRIDOR, ROOM, ScenarioParams, classify
@@ -188,7 +188,7 @@ def test_scenario_room_and_corridor():
 def test_plan_blacklist_and_world_coordinates():
     g = np.full((40, 200), FREE, np.int8)
     g[20:, :] = UNKNOWN
-    info = MapInfo(RES, origin_x=-5.0, origin_y=2.0)
+    info = GridInfo(RES, 200, 40, origin_x=-5.0, origin_y=2.0)
     robot = (-5.0 + 100 * RES, 2.0 + 5 * RES)
     pp = PlannerParams(frontier=FrontierParams(footprint_radius_m=0.18))
     first = plan(g, info, robot, pp)

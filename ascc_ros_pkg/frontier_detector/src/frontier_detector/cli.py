@@ -17,8 +17,9 @@ import argparse
 import sys
 from typing import List, Optional
 
+from ascc_common.map_io import load_map
+
 from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
-from .grid import load_map_yaml
 from .planner import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
 
 PHASES = ("phase1", "phase2", "phase3", "utility")
@@ -61,7 +62,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         print("error: --repeat must be >= 1", file=sys.stderr)
         return 2
     try:
-        grid, info = load_map_yaml(args.map_yaml)
+        grid, info = load_map(args.map_yaml)
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -27,8 +27,9 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
+from ascc_common.grid import GridInfo
+
 from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
-from .grid import MapInfo
 from .planner import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
 
 # Published statuses.
@@ -123,7 +124,7 @@ class ExplorationController:
         return None if self._goal is None else self._goal.xy
 
     # ---- the loop -----------------------------------------------------------------
-    def step(self, now: float, grid: Optional[np.ndarray], info: Optional[MapInfo],
+    def step(self, now: float, grid: Optional[np.ndarray], info: Optional[GridInfo],
              robot_xy: Optional[Tuple[float, float]], map_stamp: Optional[float],
              move_base_ready: bool, entropy: Optional[float] = None) -> Decision:
         """One planning tick; see the module docstring for the rules."""
@@ -233,8 +234,8 @@ class ExplorationController:
 
     @staticmethod
     def _path_to(result: Plan, xy: Tuple[float, float]) -> float:
-        r, c = result.info.world_to_cell(xy[0], xy[1])
-        return float(result.frontiers.path_length_m(np.array([r]), np.array([c]))[0])
+        ix, iy = result.info.world_to_cell(xy[0], xy[1])
+        return float(result.frontiers.path_length_m(np.array([iy]), np.array([ix]))[0])
 
     def _still_frontier(self, result: Plan, xy: Tuple[float, float]) -> bool:
         """A candidate goal or a filtered frontier cell within the tolerance of xy."""
@@ -245,7 +246,7 @@ class ExplorationController:
         cells = result.frontiers.phase2_rc
         if cells.shape[0] == 0:
             return False
-        r, c = result.info.world_to_cell(xy[0], xy[1])
+        c, r = result.info.world_to_cell(xy[0], xy[1])
         res = result.info.resolution
         d2 = ((cells[:, 0] - r) ** 2 + (cells[:, 1] - c) ** 2).astype(np.float64) * res * res
         return bool(d2.min() <= tol2)

@@ -1,6 +1,7 @@
 """Frontier candidate generation in the thesis's three phases (section 2.3, fig. 2.6).
 
-Input: a trinary int8 grid (see `grid.to_trinary`), its resolution and the robot's cell.
+Input: a trinary int8 grid (see `ascc_common.grid.to_trinary`), its resolution and the
+robot's cell.
 
 Phase 1, preliminary generation: FREE cells with an UNKNOWN cell within
     `neighbourhood_cells` (Chebyshev distance). Cells outside the grid count as not unknown:
@@ -36,7 +37,8 @@ from typing import Dict, Optional, Tuple
 import cv2
 import numpy as np
 
-from .grid import FREE, OCCUPIED, UNKNOWN
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
+
 from .paths import CoarseGraph, block_size, build_graph, path_lengths
 
 # Outcome of `find_frontiers`; the node publishes it on ~status.

@@ -21,9 +21,10 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
+from ascc_common.grid import UNKNOWN, GridInfo
+
 from . import explorer as ex
 from .frontiers import traversable_mask
-from .grid import UNKNOWN, MapInfo
 from .paths import _DC, _DR, _MOVES
 from .planner import Plan, PlannerParams
 from .report import coverage, reachable_area, scan_truth
@@ -88,7 +89,13 @@ def backtrack(result: Plan, goal_rc: Tuple[int, int]) -> List[Tuple[int, int]]:
     return cells[::-1]
 
 
-def run(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float], strategy: str,
+def _rc(info: GridInfo, xy: Tuple[float, float]) -> Tuple[int, int]:
+    """Array index (row, col) = (iy, ix) of the cell holding the point xy [m]."""
+    ix, iy = info.world_to_cell(xy[0], xy[1])
+    return iy, ix
+
+
+def run(truth: np.ndarray, info: GridInfo, start_xy: Tuple[float, float], strategy: str,
         params: Optional[OfflineParams] = None, planner: Optional[PlannerParams] = None,
         explorer: Optional[ex.ExplorerParams] = None) -> OfflineRun:
     """Explore `truth` from start_xy with the given strategy; see the module docstring."""
@@ -104,7 +111,7 @@ def run(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float], strateg
     reach = reachable_area(truth, info, start_xy, pp.frontier.footprint_radius_m)
     known = np.full(truth.shape, UNKNOWN, np.int8)
     pose = (float(start_xy[0]), float(start_xy[1]))
-    scan_truth(truth, known, info.world_to_cell(*pose), 0.0, rng_cells, 2 * math.pi,
+    scan_truth(truth, known, _rc(info, pose), 0.0, rng_cells, 2 * math.pi,
                2 * op.n_rays)
     out = OfflineRun(strategy, ex.EXPLORING, 0, 0, 0.0, trajectory=[pose])
     t, stamp = 0.0, 0
@@ -129,14 +136,13 @@ def run(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float], strateg
         idle_steps = 0
         out.goals += 1
         goal = d.goal_xy
-        grc = info.world_to_cell(*goal)
+        grc = _rc(info, goal)
         if not safe[grc]:
             out.bad_goals += 1
             ctrl.report_outcome(ex.ABORTED)
             continue
         cells = backtrack(d.plan, grc) if d.plan is not None else []
-        pts = [info.cells_to_world(np.array([r]), np.array([c])) for r, c in cells[1:-1]]
-        waypoints = [(float(x[0]), float(y[0])) for x, y in pts] + [goal]
+        waypoints = [info.cell_to_world(c, r) for r, c in cells[1:-1]] + [goal]
         since_scan = 0.0
         for wx, wy in waypoints:
             step = math.hypot(wx - pose[0], wy - pose[1])
@@ -151,7 +157,7 @@ def run(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float], strateg
                 heading = d.goal_yaw                     # turns to face its frontier
             if since_scan >= op.scan_spacing_m or at_goal:
                 since_scan = 0.0
-                scan_truth(truth, known, info.world_to_cell(*pose), heading, rng_cells,
+                scan_truth(truth, known, _rc(info, pose), heading, rng_cells,
                            fov, op.n_rays)
         t += op.goal_overhead_s
         out.goals_xy.append(goal)

@@ -16,6 +16,8 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.grid import GridInfo
+
 from .frontiers import (
     STATUS_EMPTY_MAP,
     STATUS_OK,
@@ -24,7 +26,6 @@ from .frontiers import (
     FrontierResult,
     find_frontiers,
 )
-from .grid import MapInfo
 from .scenario import Scenario, ScenarioParams, classify
 from .utility import STRATEGIES, Scores, UtilityParams, score_candidates
 
@@ -51,7 +52,7 @@ class PlannerParams:
 class Plan:
     status: str
     frontiers: FrontierResult
-    info: MapInfo
+    info: GridInfo
     scores: Optional[Scores] = None
     scenario: Optional[Scenario] = None
     goals_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
@@ -76,14 +77,14 @@ class Plan:
         if goal is None:
             return None
         c = self.frontiers.centroids_rc[self.best]
-        cx, cy = self.info.cells_to_world(np.array([c[0]]), np.array([c[1]]))
-        dx, dy = float(cx[0]) - goal[0], float(cy[0]) - goal[1]
+        cx, cy = self.info.cell_to_world(float(c[1]), float(c[0]))
+        dx, dy = cx - goal[0], cy - goal[1]
         if math.hypot(dx, dy) < 0.5 * self.info.resolution:
             return None
         return math.atan2(dy, dx)
 
 
-def plan(grid: np.ndarray, info: MapInfo, robot_xy: Tuple[float, float],
+def plan(grid: np.ndarray, info: GridInfo, robot_xy: Tuple[float, float],
          params: Optional[PlannerParams] = None, entropy: Optional[float] = None,
          blacklist_xy: Sequence[Tuple[float, float]] = ()) -> Plan:
     """Candidates and the chosen goal for a trinary grid and the robot's map position."""
@@ -95,7 +96,8 @@ def plan(grid: np.ndarray, info: MapInfo, robot_xy: Tuple[float, float],
     elif not (math.isfinite(rx) and math.isfinite(ry)):
         fr = FrontierResult(STATUS_ROBOT_OUTSIDE)
     else:
-        fr = find_frontiers(grid, info.resolution, info.world_to_cell(rx, ry), p.frontier)
+        ix, iy = info.world_to_cell(rx, ry)
+        fr = find_frontiers(grid, info.resolution, (iy, ix), p.frontier)
     timings = dict(fr.timings_ms)
     out = Plan(fr.status, fr, info, timings_ms=timings)
     if fr.status != STATUS_OK:
@@ -104,7 +106,7 @@ def plan(grid: np.ndarray, info: MapInfo, robot_xy: Tuple[float, float],
         return out
     t0 = time.perf_counter()
     rows, cols = fr.goals_rc[:, 0], fr.goals_rc[:, 1]
-    gx, gy = info.cells_to_world(rows, cols)
+    gx, gy = info.cell_to_world(cols, rows)
     out.goals_xy = np.stack([gx, gy], axis=1)
     allowed = np.ones(rows.size, bool)
     for bx, by in blacklist_xy:

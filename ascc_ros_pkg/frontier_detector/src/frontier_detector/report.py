@@ -24,6 +24,7 @@ No ROS import.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Dict, Iterable, Optional, Sequence, Tuple
@@ -31,20 +32,22 @@ from typing import Dict, Iterable, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
+from ascc_common import pose2d
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+from ascc_common.map_io import save_map
 from ascc_common.pose2d import wrap_angle
 
 from .frontiers import disk_kernel, snap_to_mask, traversable_mask
-from .grid import FREE, OCCUPIED, UNKNOWN, MapInfo, save_map_yaml
 
 
-def reachable_area(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, float],
+def reachable_area(truth: np.ndarray, info: GridInfo, start_xy: Tuple[float, float],
                    clearance_m: float = 0.18, snap_m: float = 0.5) -> np.ndarray:
     """Boolean mask over `truth`: FREE cells the robot's footprint can reach from start."""
     truth = np.ascontiguousarray(truth, dtype=np.int8)
     radius = clearance_m / info.resolution
     centres = traversable_mask(truth, radius)
-    r, c = info.world_to_cell(*start_xy)
-    snap = snap_to_mask(centres, r, c, int(math.ceil(snap_m / info.resolution)))
+    ix, iy = info.world_to_cell(*start_xy)
+    snap = snap_to_mask(centres, iy, ix, int(math.ceil(snap_m / info.resolution)))
     if snap is None:
         return np.zeros(truth.shape, bool)
     mask = np.zeros((truth.shape[0] + 2, truth.shape[1] + 2), np.uint8)
@@ -56,8 +59,8 @@ def reachable_area(truth: np.ndarray, info: MapInfo, start_xy: Tuple[float, floa
     return (reached > 0) & (truth == FREE)
 
 
-def coverage(explored: np.ndarray, explored_info: MapInfo, truth: np.ndarray,
-             truth_info: MapInfo, start_xy: Tuple[float, float], clearance_m: float = 0.18,
+def coverage(explored: np.ndarray, explored_info: GridInfo, truth: np.ndarray,
+             truth_info: GridInfo, start_xy: Tuple[float, float], clearance_m: float = 0.18,
              reachable: Optional[np.ndarray] = None) -> float:
     """Fraction [0, 1] of the truth's reachable area that the explored map knows.
 
@@ -68,12 +71,12 @@ def coverage(explored: np.ndarray, explored_info: MapInfo, truth: np.ndarray,
     rows, cols = np.nonzero(reachable)
     if rows.size == 0:
         return 0.0
-    x, y = truth_info.cells_to_world(rows, cols)
-    er, ec = explored_info.world_to_cells(x, y)
+    x, y = truth_info.cell_to_world(cols, rows)
+    ex, ey = explored_info.world_to_cell(x, y)
     h, w = explored.shape
-    inside = (er >= 0) & (er < h) & (ec >= 0) & (ec < w)
+    inside = (ey >= 0) & (ey < h) & (ex >= 0) & (ex < w)
     known = np.zeros(rows.size, bool)
-    vals = explored[er[inside], ec[inside]]
+    vals = explored[ey[inside], ex[inside]]
     known[inside] = (vals == FREE) | (vals == OCCUPIED)
     return float(np.count_nonzero(known)) / float(rows.size)
 
@@ -119,7 +122,7 @@ class SeenArea:
     of `reach` (a mask over the truth, see reachable_area).
     """
 
-    def __init__(self, truth: np.ndarray, info: MapInfo, reach: np.ndarray,
+    def __init__(self, truth: np.ndarray, info: GridInfo, reach: np.ndarray,
                  laser: LaserGeometry, min_move_m: float = 0.1, min_turn_rad: float = 0.1):
         self.truth, self.info, self.reach, self.laser = truth, info, reach, laser
         self.min_move_m, self.min_turn_rad = min_move_m, min_turn_rad
@@ -139,7 +142,8 @@ class SeenArea:
         self.last = (x, y, yaw)
         lx = x + self.laser.offset_x_m * math.cos(yaw)
         ly = y + self.laser.offset_x_m * math.sin(yaw)
-        scan_truth(self.truth, self.known, self.info.world_to_cell(lx, ly), yaw,
+        ix, iy = self.info.world_to_cell(lx, ly)
+        scan_truth(self.truth, self.known, (iy, ix), yaw,
                    self.range_cells, self.laser.fov_rad, self.n_rays)
         self.casts += 1
         return True
@@ -189,7 +193,7 @@ def map_image(grid: np.ndarray) -> np.ndarray:
     return img
 
 
-def write_map_png(path: str, grid: np.ndarray, info: MapInfo,
+def write_map_png(path: str, grid: np.ndarray, info: GridInfo,
                   path_xy: Optional[Sequence[Sequence[float]]] = None,
                   goals_xy: Optional[Sequence[Sequence[float]]] = None,
                   candidates_xy: Optional[Sequence[Sequence[float]]] = None,
@@ -198,8 +202,8 @@ def write_map_png(path: str, grid: np.ndarray, info: MapInfo,
     (orange dots) and the robot (green triangle), in map metres (unrotated origin)."""
     plt = _pyplot()
     h, w = grid.shape
-    extent = (info.origin_x, info.origin_x + w * info.resolution,
-              info.origin_y, info.origin_y + h * info.resolution)
+    xmin, ymin, xmax, ymax = info.bounds
+    extent = (xmin, xmax, ymin, ymax)
     fig, ax = plt.subplots(figsize=(8, 8 * h / max(w, 1) + 0.5), dpi=100)
     ax.imshow(map_image(grid), cmap="gray", vmin=0, vmax=1, origin="lower", extent=extent,
               interpolation="nearest")
@@ -259,19 +263,18 @@ def write_coverage_plot(path: str, runs: Dict[str, Tuple[Sequence[float], Sequen
     plt.close(fig)
 
 
-def compose(pose: Tuple[float, float, float], info: MapInfo) -> MapInfo:
+def compose(pose: Tuple[float, float, float], info: GridInfo) -> GridInfo:
     """`info` (a map's geometry in its own frame) expressed in a parent frame in which that
     frame sits at pose = (x, y, yaw). E.g. gmapping's map frame inside the simulator's."""
-    x, y, yaw = pose
-    c, s = math.cos(yaw), math.sin(yaw)
-    return MapInfo(info.resolution, x + c * info.origin_x - s * info.origin_y,
-                   y + s * info.origin_x + c * info.origin_y, yaw + info.origin_yaw)
+    x, y, yaw = pose2d.compose(pose, (info.origin_x, info.origin_y, info.origin_yaw))
+    return dataclasses.replace(info, origin_x=float(x), origin_y=float(y),
+                               origin_yaw=float(yaw))
 
 
 class ExplorationRecord:
     """What an exploration run did, measured against a ground truth (no ROS).
 
-    Feed it the explored map (`add_map`, with its MapInfo already in the truth's frame, see
+    Feed it the explored map (`add_map`, with its GridInfo already in the truth's frame, see
     `compose`), the true robot poses (`add_pose`), the goals sent (`add_goal`) and
     bumper hits (`add_bump`); `summary()` gives coverage, path length, time to 90/95/99 %;
     `write()` saves summary JSON, map+path+goals PNG and coverage-vs-time PNG.
@@ -280,7 +283,7 @@ class ExplorationRecord:
     Times are whatever clock the caller uses (simulated seconds in the simulator).
     """
 
-    def __init__(self, truth: np.ndarray, truth_info: MapInfo, start_xy: Tuple[float, float],
+    def __init__(self, truth: np.ndarray, truth_info: GridInfo, start_xy: Tuple[float, float],
                  clearance_m: float = 0.18, label: str = "run",
                  laser: Optional[LaserGeometry] = None):
         self.truth, self.truth_info, self.label = truth, truth_info, label
@@ -294,14 +297,14 @@ class ExplorationRecord:
         self.goals: list = []
         self.bumps = 0
         self.t0: Optional[float] = None
-        self.last_map: Optional[Tuple[np.ndarray, MapInfo]] = None
+        self.last_map: Optional[Tuple[np.ndarray, GridInfo]] = None
 
     def _rel(self, t: float) -> float:
         if self.t0 is None:
             self.t0 = t
         return t - self.t0
 
-    def add_map(self, t: float, grid: np.ndarray, info_in_truth: MapInfo) -> float:
+    def add_map(self, t: float, grid: np.ndarray, info_in_truth: GridInfo) -> float:
         c = coverage(grid, info_in_truth, self.truth, self.truth_info, self.start_xy,
                      reachable=self.reach)
         seen = self.seen.coverage() if self.seen is not None else None
@@ -382,14 +385,14 @@ class ExplorationRecord:
         if self.last_map is not None:
             # Draw the explored map resampled into the truth's grid.
             grid, info = self.last_map
-            save_map_yaml(base + "_explored.yaml", grid, info)
+            save_map(base + "_explored.yaml", grid, info)
             rows, cols = np.indices(self.truth.shape)
-            x, y = self.truth_info.cells_to_world(rows.ravel(), cols.ravel())
-            er, ec = info.world_to_cells(x, y)
+            x, y = self.truth_info.cell_to_world(cols.ravel(), rows.ravel())
+            ex, ey = info.world_to_cell(x, y)
             h, w = grid.shape
-            inside = (er >= 0) & (er < h) & (ec >= 0) & (ec < w)
+            inside = (ey >= 0) & (ey < h) & (ex >= 0) & (ex < w)
             img = np.full(self.truth.size, UNKNOWN, np.int8)
-            img[inside] = grid[er[inside], ec[inside]]
+            img[inside] = grid[ey[inside], ex[inside]]
             write_map_png(base + "_map.png", img.reshape(self.truth.shape), self.truth_info,
                           self.poses, self.goals, robot_xy=self.poses[-1] if self.poses
                           else None, title=f"{self.label}: {s['path_m']:.1f} m, "

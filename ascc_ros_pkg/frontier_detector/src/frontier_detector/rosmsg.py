@@ -1,8 +1,8 @@
 """Conversions between ROS messages and this package's arrays (message classes only, no
 rospy: usable and testable without a master).
 
-* `grid_from_msg`: nav_msgs/OccupancyGrid -> trinary int8 grid + MapInfo + odd-value counts
-  (thresholding rule in grid.py).
+* `grid_from_msg`: nav_msgs/OccupancyGrid -> trinary int8 grid + GridInfo + odd-value counts
+  (thresholding rule in ascc_common.grid).
 * `plan_markers`: visualization_msgs/MarkerArray showing fig. 2.6's stages: namespace
   `phase1` (preliminary candidates, small blue points), `phase2` (after filtering, orange
   points), `unreachable` (frontier segments with no reachable cell, grey points),
@@ -23,27 +23,19 @@ from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ascc_common.pose2d import quaternion_from_yaw, yaw_of
+from ascc_common.grid import GridInfo, grid_from_msg_data, to_trinary
+from ascc_common.pose2d import quaternion_from_yaw
 
-from .grid import MapInfo, to_trinary
 from .planner import Plan
 
 
 def grid_from_msg(msg: OccupancyGrid, free_max: int = 19, occupied_min: int = 65
-                  ) -> Tuple[np.ndarray, MapInfo, Dict[str, int]]:
-    """Trinary grid, geometry and odd-value counts; ValueError if data and size disagree."""
-    w, h = int(msg.info.width), int(msg.info.height)
-    data = msg.data
-    if isinstance(data, (bytes, bytearray)):
-        arr = np.frombuffer(data, dtype=np.int8)
-    else:
-        arr = np.asarray(data, dtype=np.int16).clip(-128, 127).astype(np.int8)
-    if arr.size != w * h:
-        raise ValueError(f"map data has {arr.size} cells, width x height = {w * h}")
-    o = msg.info.origin
-    info = MapInfo(float(msg.info.resolution), float(o.position.x), float(o.position.y),
-                   yaw_of(o.orientation))
-    grid, counts = to_trinary(arr.reshape(h, w), free_max, occupied_min)
+                  ) -> Tuple[np.ndarray, GridInfo, Dict[str, int]]:
+    """Trinary grid, geometry and odd-value counts; ValueError if data and size disagree
+    or the geometry is invalid (e.g. resolution 0)."""
+    info = GridInfo.from_msg_info(msg.info)
+    data = grid_from_msg_data(msg.data, info.width, info.height)
+    grid, counts = to_trinary(data, free_max, occupied_min)
     return grid, info, counts
 
 
@@ -99,7 +91,7 @@ def plan_markers(result: Plan, frame_id: str, stamp, robot_xy: Optional[Tuple[fl
             ("unreachable", fr.unreachable_rc, 1.5 * res, (0.5, 0.5, 0.5, 0.9), 0.02)):
         m = _marker(frame_id, stamp, ns, Marker.POINTS, scale, rgba)
         if cells.shape[0]:
-            x, y = info.cells_to_world(cells[:, 0], cells[:, 1])
+            x, y = info.cell_to_world(cells[:, 1], cells[:, 0])
             m.points = _points(np.stack([x, y], axis=1), z, max_points)
         out.markers.append(m)
     m = _marker(frame_id, stamp, "phase3", Marker.SPHERE_LIST, 0.2, (1.0, 1.0, 1.0, 1.0))

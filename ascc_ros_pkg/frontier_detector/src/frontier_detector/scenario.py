@@ -21,7 +21,7 @@ from typing import Tuple
 import cv2
 import numpy as np
 
-from .grid import FREE, OCCUPIED
+from ascc_common.grid import FREE, OCCUPIED
 
 ROOM = "room"
 CORRIDOR = "corridor"

@@ -16,7 +16,7 @@ from typing import Tuple
 
 import numpy as np
 
-from .grid import FREE, OCCUPIED, UNKNOWN
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
 
 
 def _cells(length_m: float, resolution: float) -> int:

@@ -30,7 +30,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from .grid import OCCUPIED, UNKNOWN
+from ascc_common.grid import OCCUPIED, UNKNOWN
 
 STRATEGIES = ("utility", "nearest")
 
