@@ -142,7 +142,8 @@ def test_map_server_files_round_trip(tmp_path):
     # a rotated origin and odd values survive (odd values are written as unknown)
     g[0, 0] = 50
     turned = GridInfo(0.1, 20, 12, 0.3, -0.7, math.pi / 3)
-    save_map(str(tmp_path / "t.yaml"), g, turned)
+    save_map(str(tmp_path / "t.yaml"), g, turned, comment="made by a test")
+    assert (tmp_path / "t.yaml").read_text().startswith("# made by a test\nimage: t.pgm\n")
     g3, info3 = load_map(str(tmp_path / "t.yaml"))
     assert info3 == turned and g3[0, 0] == UNKNOWN and np.array_equal(g3[1:], g2[1:])
     with pytest.raises(ValueError):

@@ -23,7 +23,7 @@ times. So a map that is bad online and good in the replay points at the load, no
 filter.
 
     python3 scripts/replay_mapper.py RUN.bag [--seeds 0 1] [--set lskip=0] [--drop-late-s 0.5]
-        [--out DIR]  (writes the replayed maps as PGM)
+        [--out DIR]  (writes the replayed maps as map_server YAML + PGM)
 """
 import argparse
 import math
@@ -42,6 +42,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "src"))
 from bench_mapper import add_parameter_arguments, parameters_from_arguments  # noqa: E402
 
 from ascc_common.grid import FREE, UNKNOWN, GridInfo, grid_from_msg_data  # noqa: E402
+from ascc_common.map_io import save_map  # noqa: E402
 from ascc_common.pose2d import (  # noqa: E402
     compose,
     inverse,
@@ -211,7 +212,7 @@ def main():
     ap.add_argument("--drop-late-s", type=float, default=0.0,
                     help="skip scans whose odometry TF was received later than this after "
                          "the scan's stamp, as the online node does (its tf_wait_s); 0: off")
-    ap.add_argument("--out", default="", help="write each replayed map here as PGM")
+    ap.add_argument("--out", default="", help="write each replayed map here (YAML + PGM)")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     params = parameters_from_arguments(ap, args)
@@ -243,9 +244,7 @@ def main():
         sys.stdout.flush()
         if args.out:
             os.makedirs(args.out, exist_ok=True)
-            g = r["grid"][::-1]
-            img = np.where(g == FREE, 254, np.where(g == UNKNOWN, 205, 0)).astype(np.uint8)
-            cv2.imwrite(os.path.join(args.out, "replay_seed%d.pgm" % seed), img)
+            save_map(os.path.join(args.out, "replay_seed%d.yaml" % seed), r["grid"], r["info"])
 
 
 if __name__ == "__main__":

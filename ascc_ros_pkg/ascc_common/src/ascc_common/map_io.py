@@ -144,10 +144,11 @@ def load_map(path: str, modes: Sequence[str] = MODES) -> Tuple[np.ndarray, GridI
 
 
 def save_map(path: str, grid: np.ndarray, info: GridInfo,
-             image: Optional[str] = None) -> str:
-    """Write a trinary grid as map_server YAML (``path``) + PGM (``image``, default the
-    YAML's name with .pgm, next to it): free 254, occupied 0, anything else 205 (unknown),
-    mode trinary with the default thresholds. Returns the image's path."""
+             image: Optional[str] = None, comment: str = "") -> str:
+    """Write a trinary grid as map_server YAML (``path``, headed by ``# comment`` if one is
+    given) + PGM (``image``, default the YAML's name with .pgm, next to it): free 254,
+    occupied 0, anything else 205 (unknown), mode trinary with the default thresholds.
+    Returns the image's path."""
     if grid.shape != info.shape:
         raise ValueError("grid of shape %s does not match %r" % (grid.shape, info))
     img = np.full(grid.shape, PIXEL_UNKNOWN, dtype=np.uint8)
@@ -160,6 +161,8 @@ def save_map(path: str, grid: np.ndarray, info: GridInfo,
     if not cv2.imwrite(image_path, np.flipud(img)):
         raise OSError("cannot write map image %s" % image_path)
     with open(path, "w", encoding="utf-8") as f:
+        if comment:
+            f.write("# %s\n" % comment)
         f.write("image: %s\nresolution: %r\norigin: [%r, %r, %r]\nnegate: 0\n"
                 "occupied_thresh: %r\nfree_thresh: %r\nmode: trinary\n"
                 % (image, info.resolution, info.origin_x, info.origin_y, info.origin_yaw,
