@@ -38,9 +38,9 @@ from visualization_msgs.msg import MarkerArray
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fake_world  # noqa: E402  (test helper next to this file)
 
+from ascc_common.map_io import load_map  # noqa: E402
 from ascc_testing.rosout import RosoutWatcher  # noqa: E402
 from ascc_testing.waits import ConditionWaitMixin, wait_for  # noqa: E402
-from frontier_detector.grid import load_map_yaml  # noqa: E402
 from frontier_detector.report import coverage  # noqa: E402
 from frontier_detector.rosmsg import grid_from_msg  # noqa: E402
 
@@ -237,7 +237,7 @@ class ExplorerTest(ConditionWaitMixin, unittest.TestCase):
             self.assertGreater(min(img.shape[:2]), 100, (png, img.shape))
         # The explored map (map_server YAML + PGM in the truth frame) is the map the final
         # coverage was measured on.
-        grid, info = load_map_yaml(stem + "_explored.yaml")
+        grid, info = load_map(stem + "_explored.yaml")
         truth, tinfo = fake_world.build_world()
         self.assertEqual(grid.shape, truth.shape)
         self.assertAlmostEqual(info.origin_x, 0.0)
