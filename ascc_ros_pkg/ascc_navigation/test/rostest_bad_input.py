@@ -39,10 +39,11 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
 from ascc_common.grid import FREE, OCCUPIED, grid_to_msg_data
+from ascc_common.pose2d import yaw_of
 from ascc_navigation import synthetic as syn
 from ascc_navigation.laser import LaserMount
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
-from ascc_testing.waits import Latest, wait_for, yaw_of
+from ascc_testing.waits import Latest, wait_for
 
 POSE = (2.0, 2.0, 0.3)  # true robot pose in the map; odom starts there
 MOUNT = LaserMount(0.1, 0.0, 0.0)

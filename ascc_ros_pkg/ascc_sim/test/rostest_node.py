@@ -27,8 +27,9 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.pose2d import wrap_angle, yaw_of
 from ascc_sim.msg import SimObjectArray
-from ascc_testing.waits import Latest, pose_of, wait_for, wrap, yaw_of
+from ascc_testing.waits import Latest, pose_of, wait_for
 
 EPS = 1e-6  # float arithmetic [m, rad, s]
 PHYSICS_DT_S = 0.01  # sim.launch default
@@ -170,7 +171,7 @@ class SimulatorNodeTest(unittest.TestCase):
             pose = pose3(spec["pose"])
             x, y, yaw = o.pose.position.x, o.pose.position.y, yaw_of(o.pose.orientation)
             self.assertLess(math.hypot(x - pose[0], y - pose[1]), EPS, name)
-            self.assertLess(abs(wrap(yaw - pose[2])), EPS, name)
+            self.assertLess(abs(wrap_angle(yaw - pose[2])), EPS, name)
             pts = [(p.x, p.y) for p in o.footprint.points]
             if "color" in spec and not isinstance(spec["color"], str):
                 self.assertEqual([round(c, 6) for c in (o.color.r, o.color.g, o.color.b)],
@@ -252,7 +253,7 @@ class SimulatorNodeTest(unittest.TestCase):
             self.assertEqual(p.activity, activity, where)
             self.assertAlmostEqual(p.speed, speed, delta=EPS, msg=where)
             if heading is not None:
-                self.assertLess(abs(wrap(yaw_of(p.pose.orientation) - heading)), EPS, where)
+                self.assertLess(abs(wrap_angle(yaw_of(p.pose.orientation) - heading)), EPS, where)
             seen.add((activity, t > t_loop))
         # every phase was seen, and the walk again after the loop closed
         self.assertTrue({("stand", False), ("walk", False), ("read", False),
@@ -311,7 +312,7 @@ class SimulatorNodeTest(unittest.TestCase):
         rx, ry, ryaw = pose_of(truth)
         body = at(rx, ry)
         self.assertTrue(body, "no marker at the robot (%.3f, %.3f)" % (rx, ry))
-        self.assertTrue(any(abs(wrap(yaw_of(m.pose.orientation) - ryaw)) < EPS
+        self.assertTrue(any(abs(wrap_angle(yaw_of(m.pose.orientation) - ryaw)) < EPS
                             for m in body), "robot marker heading")
         self.assertIn(self.robot["name"], labels)
         # the person where the script puts it, labelled with the activity
@@ -330,10 +331,10 @@ class SimulatorNodeTest(unittest.TestCase):
                  "TF map -> odom")
         tr = self.tf.lookup_transform("map", "odom", rospy.Time(0)).transform
         self.assertLess(math.hypot(tr.translation.x - x, tr.translation.y - y), EPS)
-        self.assertLess(abs(wrap(yaw_of(tr.rotation) - yaw)), EPS)
+        self.assertLess(abs(wrap_angle(yaw_of(tr.rotation) - yaw)), EPS)
         sx, sy, syaw = pose_of(self.start.wait(60.0))
         self.assertLess(math.hypot(sx - x, sy - y), EPS)
-        self.assertLess(abs(wrap(syaw - yaw)), EPS)
+        self.assertLess(abs(wrap_angle(syaw - yaw)), EPS)
         # with the driver's odom -> base_link, map -> base_link is the true pose (the
         # robot is never commanded here)
         wait_for(lambda: self.tf.can_transform("map", "base_link", rospy.Time(0)), 60.0,
@@ -341,7 +342,7 @@ class SimulatorNodeTest(unittest.TestCase):
         tr = self.tf.lookup_transform("map", "base_link", rospy.Time(0)).transform
         tx, ty, tyaw = pose_of(self.truth.wait(60.0))
         self.assertLess(math.hypot(tr.translation.x - tx, tr.translation.y - ty), EPS)
-        self.assertLess(abs(wrap(yaw_of(tr.rotation) - tyaw)), EPS)
+        self.assertLess(abs(wrap_angle(yaw_of(tr.rotation) - tyaw)), EPS)
 
     # --- the node as a process ------------------------------------------------------------
     def test_max_sim_time_ends_the_launch(self):

@@ -16,7 +16,8 @@ import yaml
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-from ascc_testing.waits import Latest, compose, pose_of, wait_for, yaw_of
+from ascc_common.pose2d import compose, yaw_of
+from ascc_testing.waits import Latest, pose_of, wait_for
 
 N_SCANS = 20
 

@@ -27,7 +27,8 @@ import rostest
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 
-from ascc_testing.waits import Latest, compose, pose_of, wait_for, wrap
+from ascc_common.pose2d import compose, wrap_angle
+from ascc_testing.waits import Latest, pose_of, wait_for
 
 WHEEL_BASE_M = 0.258
 MM = 0.001  # the Create's distance quantum [m]
@@ -109,11 +110,11 @@ class SquareTest(unittest.TestCase):
         return math.hypot(x - x0, y - y0)
 
     def turned(self, yaw0):
-        return wrap(pose_of(self.odom.msg)[2] - yaw0)
+        return wrap_angle(pose_of(self.odom.msg)[2] - yaw0)
 
     def lag(self, rest):
         """How far the odometry's heading (in map) lags the true heading [rad]."""
-        return wrap(rest[2][2] - rest[1][2])
+        return wrap_angle(rest[2][2] - rest[1][2])
 
     def side_heading(self, first, last, truth_yaw):
         """Distance-weighted mean of the odometry's heading in map over odom messages
@@ -123,8 +124,8 @@ class SquareTest(unittest.TestCase):
         offs, weights = [], []
         for a, b in zip(msgs, msgs[1:]):
             pa, pb = pose_of(a), pose_of(b)
-            yaw = wrap(self.start_pose[2] + pa[2] + 0.5 * wrap(pb[2] - pa[2]))
-            offs.append(wrap(yaw - truth_yaw))
+            yaw = wrap_angle(self.start_pose[2] + pa[2] + 0.5 * wrap_angle(pb[2] - pa[2]))
+            offs.append(wrap_angle(yaw - truth_yaw))
             weights.append(math.hypot(pb[0] - pa[0], pb[1] - pa[1]))
         total = sum(weights)
         mean = sum(o * w for o, w in zip(offs, weights)) / total if total else 0.0
@@ -157,7 +158,7 @@ class SquareTest(unittest.TestCase):
         # the true heading does not change on a side, the true position not in a turn.
         for i in range(4):
             (_, _, t0, _), (_, _, t1, _), (_, _, t2, _) = rests[2 * i:2 * i + 3]
-            self.assertLess(abs(wrap(t1[2] - t0[2])), EPS, "side %d: true heading" % i)
+            self.assertLess(abs(wrap_angle(t1[2] - t0[2])), EPS, "side %d: true heading" % i)
             self.assertLess(math.hypot(t2[0] - t1[0], t2[1] - t1[1]), EPS,
                             "turn %d: true position" % i)
 
@@ -190,8 +191,8 @@ class SquareTest(unittest.TestCase):
                             "side %d: true length %.4f m, odom path %.4f m (tol %.4f)"
                             % (i, d_t, path, tol_len))
             if not self.noisy:
-                self.assertLess(abs(wrap(self.lag(rests[2 * i + 1]) - self.lag(rests[2 * i]))),
-                                EPS, "side %d: odom heading turned on a straight" % i)
+                turned = wrap_angle(self.lag(rests[2 * i + 1]) - self.lag(rests[2 * i]))
+                self.assertLess(abs(turned), EPS, "side %d: odom heading turned on a straight" % i)
             expect = rotate(o, -mean_off)
             miss = math.hypot(t[0] - expect[0], t[1] - expect[1])
             tol_dir = tol_len + path * spread * spread / 2
@@ -209,7 +210,7 @@ class SquareTest(unittest.TestCase):
                                 math.sqrt(2 * turn_travel) * k) / b
         for i in range(4):
             before, after = rests[2 * i + 1], rests[2 * i + 2]
-            change = wrap(self.lag(after) - self.lag(before))
+            change = wrap_angle(self.lag(after) - self.lag(before))
             self.assertLess(abs(change), DEG + 3 * sigma_turn + EPS,
                             "turn %d: the odometry's heading lag changed by %.3f deg"
                             % (i, math.degrees(change)))

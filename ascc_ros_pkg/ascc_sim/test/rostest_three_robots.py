@@ -13,7 +13,8 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 
-from ascc_testing.waits import Latest, compose, pose_of, wait_for, wrap, yaw_of
+from ascc_common.pose2d import compose, wrap_angle, yaw_of
+from ascc_testing.waits import Latest, pose_of, wait_for
 from irobot_create_2_1.msg import SensorPacket
 
 ROBOTS = ("robotA", "robotB", "robotC")
@@ -83,7 +84,7 @@ class ThreeRobotsTest(unittest.TestCase):
                 # ... along its own heading in the map.
                 heading = math.atan2(pose_of(self.truth[r].msg)[1] - truth0[r][1],
                                      pose_of(self.truth[r].msg)[0] - truth0[r][0])
-                self.assertLess(abs(wrap(heading - truth0[r][2])), 0.05)
+                self.assertLess(abs(wrap_angle(heading - truth0[r][2])), 0.05)
             else:
                 self.assertEqual(moved, 0.0, r)
                 self.assertEqual(odom_moved, 0.0, r)
@@ -99,7 +100,7 @@ class ThreeRobotsTest(unittest.TestCase):
                             (mount.translation.x, mount.translation.y,
                              yaw_of(mount.rotation)))
             bx, by, _ = pose_of(self.truth["robotB"].msg)
-            bearing = wrap(math.atan2(by - laser[1], bx - laser[0]) - laser[2])
+            bearing = wrap_angle(math.atan2(by - laser[1], bx - laser[0]) - laser[2])
             k = int(round((bearing - scan.angle_min) / scan.angle_increment))
             dist = math.hypot(bx - laser[0], by - laser[1])
             got = np.array(scan.ranges[k - 1:k + 2])

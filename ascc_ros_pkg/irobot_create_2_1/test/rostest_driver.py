@@ -34,6 +34,7 @@ from sensor_msgs.msg import BatteryState
 from std_srvs.srv import SetBool, Trigger
 from tf2_msgs.msg import TFMessage
 
+from ascc_common.pose2d import wrap_angle, yaw_of
 from ascc_testing.rosout import RosoutWatcher
 from ascc_testing.waits import Latest, wait_for
 from irobot_create_2_1.msg import Hazards, SensorPacket
@@ -50,11 +51,6 @@ SCHEDULING_S = 0.1
 SENSOR_TIMEOUT_S = 1.0           # driver ~sensor_timeout_s (default)
 DRIVER = "/driver"
 OPT = "/opt"                     # the second pair: mode full, publish_tf false
-
-
-def yaw_of(pose):
-    q = pose.orientation
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 def stamp(msg):
@@ -308,27 +304,26 @@ class DriverTest(unittest.TestCase):
         self.assertLess(abs(d_odom - d_truth), 0.02 * d_truth,
                         "odometry %.4f m vs truth %.4f m" % (d_odom, d_truth))
         # x grows when driving forward (the old driver had it backwards)
-        heading = yaw_of(odom0)
+        heading = yaw_of(odom0.orientation)
         progress = ((odom1.position.x - odom0.position.x) * math.cos(heading)
                     + (odom1.position.y - odom0.position.y) * math.sin(heading))
         self.assertGreater(progress, 0.98)
 
     def _turn(self, w, angle):
         odom0, truth0 = self.settled("odom before turn")
-        yaw0 = yaw_of(truth0)
+        yaw0 = yaw_of(truth0.orientation)
         turned = [0.0]
         last = [yaw0]
 
         def done():
-            yaw = yaw_of(self.truth.msg.pose.pose)
-            turned[0] += math.atan2(math.sin(yaw - last[0]), math.cos(yaw - last[0]))
+            yaw = yaw_of(self.truth.msg.pose.pose.orientation)
+            turned[0] += wrap_angle(yaw - last[0])
             last[0] = yaw
             return abs(turned[0]) >= angle
         self.drive_until(0.0, w, done, 20.0)
         odom1, truth1 = self.settled("odom after turn")
-        d_truth = math.atan2(math.sin(yaw_of(truth1) - yaw0), math.cos(yaw_of(truth1) - yaw0))
-        d_odom = math.atan2(math.sin(yaw_of(odom1) - yaw_of(odom0)),
-                            math.cos(yaw_of(odom1) - yaw_of(odom0)))
+        d_truth = wrap_angle(yaw_of(truth1.orientation) - yaw0)
+        d_odom = wrap_angle(yaw_of(odom1.orientation) - yaw_of(odom0.orientation))
         self.assertGreater(abs(d_truth), math.radians(85))
         self.assertLess(abs(math.degrees(d_odom - d_truth)), 2.0,
                         "odometry turn %.2f deg vs truth %.2f deg"

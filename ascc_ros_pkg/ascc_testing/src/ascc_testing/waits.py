@@ -4,19 +4,12 @@
 faster or stall); ``ConditionWaitMixin`` waits on a test case's ``threading.Condition``
 with a timeout in ROS time.
 """
-import math
 import threading
 import time
 
 import rospy
 
-
-def yaw_of(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def wrap(a):
-    return math.atan2(math.sin(a), math.cos(a))
+from ascc_common.pose2d import yaw_of
 
 
 def wait_for(condition, timeout_s, what):
@@ -61,11 +54,6 @@ def pose_of(odom_or_pose_msg):
     p = getattr(p, "pose", p)
     return p.position.x, p.position.y, yaw_of(p.orientation)
 
-
-def compose(a, b):
-    """Pose b expressed in frame a -> pose in a's parent frame (2D)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2])
 
 
 class ConditionWaitMixin:
