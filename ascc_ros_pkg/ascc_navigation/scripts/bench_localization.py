@@ -25,6 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
+from ascc_common.params import from_params  # noqa: E402
 from ascc_common.pose2d import wrap_angle  # noqa: E402
 from ascc_navigation import mcl  # noqa: E402
 from ascc_navigation import synthetic as syn  # noqa: E402
@@ -109,7 +110,7 @@ def main() -> int:
                     help="estimates left out of the statistics while the filter converges")
     args = ap.parse_args()
     with open(args.config) as f:
-        params = mcl.MclParams.from_mapping(yaml.safe_load(f))
+        params = from_params(mcl.MclParams, yaml.safe_load(f).get)
     if args.beam_exponent is not None:
         params.laser_beam_exponent = args.beam_exponent
     if args.max_beams is not None:

@@ -36,6 +36,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
+from ascc_common.params import from_params, parameters  # noqa: E402
 from ascc_common.pose2d import compose  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
@@ -63,7 +64,7 @@ ROUTES = {
 def load_params(path):
     with open(path) as f:
         values = yaml.safe_load(f)
-    known = {name for name, _, _, _ in M.PARAMETERS}
+    known = {p.name for p in parameters(M.MapperConfig)}
     return {k: v for k, v in values.items() if k in known}
 
 
@@ -77,7 +78,7 @@ def add_parameter_arguments(ap):
 def parameters_from_arguments(ap, args):
     """The mapper parameters of --config with the --set overrides applied."""
     params = load_params(args.config)
-    known = {name for name, _, _, _ in M.PARAMETERS}
+    known = {p.name for p in parameters(M.MapperConfig)}
     for item in args.set:
         name, _, value = item.partition("=")
         if name not in known:
@@ -159,7 +160,7 @@ def run(world, params, seed, odom_kind):
     if hasattr(world, "check_route"):
         world.check_route(traj)
     odom = odometry(odom_kind, traj, rng)
-    mapper = M.SlamMapper(M.config_from_parameters(params), seed=seed)
+    mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     spec = world.spec
     times, walls, errors, statuses = [], [], [], {}
     k = 0

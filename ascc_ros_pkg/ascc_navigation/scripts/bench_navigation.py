@@ -32,6 +32,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "src"))
 
 from ascc_common.grid import OCCUPIED, GridInfo  # noqa: E402
+from ascc_common.params import from_params, tree_getter  # noqa: E402
 from ascc_navigation import navigation as nav  # noqa: E402
 from ascc_navigation import planner as pln  # noqa: E402
 from ascc_navigation import synthetic as syn  # noqa: E402
@@ -113,7 +114,8 @@ class Sim:
 
 def load_params():
     with open(os.path.join(HERE, "..", "config", "move_base.yaml")) as f:
-        return nav.params_from_move_base(nav.nested_getter(yaml.safe_load(f)))
+        p = from_params(nav.MoveBaseParams, tree_getter(yaml.safe_load(f)))
+    return p.planner, p.controller, p.nav
 
 
 def random_goals(grid, info, planner_params, start, n, rng):

@@ -43,6 +43,7 @@ from bench_mapper import add_parameter_arguments, parameters_from_arguments  # n
 
 from ascc_common.grid import FREE, UNKNOWN, GridInfo, grid_from_msg_data  # noqa: E402
 from ascc_common.map_io import save_map  # noqa: E402
+from ascc_common.params import from_params  # noqa: E402
 from ascc_common.pose2d import (  # noqa: E402
     compose,
     inverse,
@@ -153,7 +154,7 @@ class RunBag:
 
 def replay(run, params, seed, drop_late_s, late):
     """One replay with filter ``seed``; ``late`` = run.tf_lateness() (used if drop_late_s > 0)."""
-    mapper = M.SlamMapper(M.config_from_parameters(params), seed=seed)
+    mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     world_from_map = None
     errors = []
     cpu = 0.0

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import OCCUPIED, GridInfo
+from ascc_common.params import from_params
 from ascc_common.pose2d import compose, wrap_angle
 from ascc_navigation import mcl
 from ascc_navigation import synthetic as syn
@@ -169,8 +170,8 @@ def test_update_gating_and_reset():
 
 
 def test_params_from_mapping_casts_and_ignores_unknown_keys():
-    p = mcl.MclParams.from_mapping({"min_particles": 250.0, "laser_sigma_hit": "0.1",
-                                    "use_map_topic": True})
+    p = from_params(mcl.MclParams, {"min_particles": 250.0, "laser_sigma_hit": "0.1",
+                                    "use_map_topic": True}.get)
     assert p.min_particles == 250 and isinstance(p.min_particles, int)
     assert p.laser_sigma_hit == 0.1
 

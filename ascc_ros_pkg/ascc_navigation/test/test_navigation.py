@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import OCCUPIED
+from ascc_common.params import from_params, tree_getter
 from ascc_navigation import controller as ctl
 from ascc_navigation import navigation as nav
 from ascc_navigation import synthetic as syn
@@ -156,7 +157,8 @@ def test_params_from_move_base_names():
             "global_costmap": {"robot_radius": 0.2,
                                "inflation_layer": {"inflation_radius": 0.8}},
             "stand_in": {"planner_resolution": 0.05}}
-    planner, controller, params = nav.params_from_move_base(nav.nested_getter(tree))
+    p = from_params(nav.MoveBaseParams, tree_getter(tree))
+    planner, controller, params = p.planner, p.controller, p.nav
     assert params.planner_patience == 7.0
     assert planner.allow_unknown is False and planner.resolution == 0.05
     assert planner.robot_radius == 0.2 and controller.robot_radius == 0.2
@@ -210,7 +212,7 @@ def test_late_command_is_dropped_and_the_controller_restarts(office):
 
 def test_base_cmd_timeout_from_move_base_names():
     tree = {"stand_in": {"base_cmd_timeout_s": 0.3}}
-    _, _, params = nav.params_from_move_base(nav.nested_getter(tree))
+    params = from_params(nav.MoveBaseParams, tree_getter(tree)).nav
     assert params.base_cmd_timeout == 0.3
 
 

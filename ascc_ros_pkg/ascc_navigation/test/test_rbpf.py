@@ -8,6 +8,7 @@ import pytest
 
 from ascc_common import pose2d as P
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+from ascc_common.params import from_params, parameters
 from ascc_navigation import grid as G
 from ascc_navigation import mapper as M
 from ascc_navigation import rbpf as R
@@ -263,20 +264,20 @@ def _mapper(**params):
     base = {"particles": 5, "xmin": 0.0, "ymin": 0.0, "xmax": 14.0, "ymax": 10.0,
             "linearUpdate": 0.25, "angularUpdate": 0.25, "maxUrange": 3.9, "maxRange": 4.5}
     base.update(params)
-    return M.SlamMapper(M.config_from_parameters(base), seed=0)
+    return M.SlamMapper(from_params(M.MapperConfig, base.get), seed=0)
 
 
 def test_parameters_keep_gmapping_names_and_check_types():
-    defaults = M.default_parameters()
+    defaults = {p.name: p.default for p in parameters(M.MapperConfig)}
     for name in ("particles", "delta", "linearUpdate", "angularUpdate", "temporalUpdate",
                  "maxUrange", "xmin", "ymax", "srr", "ogain"):
         assert name in defaults
-    cfg = M.config_from_parameters({"particles": 12, "linearUpdate": 0.3, "delta": 0.1})
+    cfg = from_params(M.MapperConfig, {"particles": 12, "linearUpdate": 0.3, "delta": 0.1}.get)
     assert cfg.rbpf.particles == 12 and cfg.linear_update == 0.3 and cfg.rbpf.delta == 0.1
     with pytest.raises(ValueError, match="particles"):
-        M.config_from_parameters({"particles": 2.5})
+        from_params(M.MapperConfig, {"particles": 2.5}.get)
     with pytest.raises(ValueError, match="linearUpdate"):
-        M.config_from_parameters({"linearUpdate": "far"})
+        from_params(M.MapperConfig, {"linearUpdate": "far"}.get)
 
 
 def test_mapper_updates_only_after_enough_motion():

@@ -28,6 +28,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ascc_common.params import param
 from ascc_common.pose2d import wrap_angle
 
 FOLLOWING = "following"
@@ -38,23 +39,33 @@ GOAL_REACHED = "goal_reached"
 
 @dataclass
 class ControllerParams:
-    """Names as base_local_planner's TrajectoryPlannerROS where one exists."""
+    """Read as base_local_planner's TrajectoryPlannerROS parameters where one exists, else
+    as the stand-in's ``stand_in/`` ones (``ascc_common.params``; package README)."""
 
-    max_vel_x: float = 0.3  # [m/s] the thesis drives the ASCCbot at 0.3 m/s
-    min_vel_x: float = 0.05  # [m/s] slowest forward speed while following
-    max_vel_theta: float = 1.0  # [rad/s]
-    min_in_place_vel_theta: float = 0.3  # [rad/s]
-    acc_lim_x: float = 0.5  # [m/s^2]
-    acc_lim_theta: float = 2.0  # [rad/s^2]
-    xy_goal_tolerance: float = 0.15  # [m]
-    yaw_goal_tolerance: float = 0.2  # [rad]
-    lookahead: float = 0.4  # [m] pure-pursuit look-ahead distance
-    rotate_in_place_angle: float = 0.5  # [rad] heading error that stops forward motion
-    blocked_turn_angle: float = 0.1  # [rad] heading error turned away on the spot if blocked
+    max_vel_x: float = param(0.3, "[m/s] the thesis drives the ASCCbot at 0.3 m/s",
+                             "TrajectoryPlannerROS/max_vel_x", gt=0.0)
+    min_vel_x: float = param(0.05, "[m/s] slowest forward speed while following",
+                             "TrajectoryPlannerROS/min_vel_x", ge=0.0)
+    max_vel_theta: float = param(1.0, "[rad/s]", "TrajectoryPlannerROS/max_vel_theta", gt=0.0)
+    min_in_place_vel_theta: float = param(0.3, "[rad/s]",
+                                          "TrajectoryPlannerROS/min_in_place_vel_theta")
+    acc_lim_x: float = param(0.5, "[m/s^2]", "TrajectoryPlannerROS/acc_lim_x", gt=0.0)
+    acc_lim_theta: float = param(2.0, "[rad/s^2]", "TrajectoryPlannerROS/acc_lim_theta",
+                                 gt=0.0)
+    xy_goal_tolerance: float = param(0.15, "[m]", "TrajectoryPlannerROS/xy_goal_tolerance")
+    yaw_goal_tolerance: float = param(0.2, "[rad]", "TrajectoryPlannerROS/yaw_goal_tolerance")
+    lookahead: float = param(0.4, "[m] pure-pursuit look-ahead distance", "stand_in/lookahead",
+                             gt=0.0)
+    rotate_in_place_angle: float = param(0.5, "[rad] heading error that stops forward motion",
+                                         "stand_in/rotate_in_place_angle")
+    blocked_turn_angle: float = param(0.1, "[rad] heading error turned away on the spot if "
+                                      "blocked", "stand_in/blocked_turn_angle")
     heading_gain: float = 1.5  # [1/s] w = gain * heading error when turning on the spot
-    robot_radius: float = 0.17  # [m]
-    obstacle_margin: float = 0.02  # [m] clearance kept to laser points (approached ones)
-    obstacle_horizon: float = 1.0  # [s] of motion checked against the laser
+    robot_radius: float = param(0.17, "[m]", "global_costmap/robot_radius", gt=0.0)
+    obstacle_margin: float = param(0.02, "[m] clearance kept to laser points (approached "
+                                   "ones)", "stand_in/obstacle_margin")
+    obstacle_horizon: float = param(1.0, "[s] of motion checked against the laser",
+                                    "stand_in/obstacle_horizon")
 
 
 @dataclass

@@ -2,19 +2,21 @@
 guards against bad input, and computes what slam_gmapping publishes (map, entropy, map->odom).
 
 The ROS node (``nodes/slam_mapper``) only looks up TF, converts messages and calls
-``SlamMapper.handle_scan`` with plain numbers. Parameters keep gmapping's names; the table
-``PARAMETERS`` lists them with defaults and units (the node reads ``~<name>`` for each).
+``SlamMapper.handle_scan`` with plain numbers. Parameters keep gmapping's names: the node
+reads ``MapperConfig`` with ``ascc_common.params.from_params`` (names, defaults, units and
+bounds are in its fields and ``RbpfConfig``'s).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import nested, param
 from ascc_common.pose2d import compose, inverse, relative
 from ascc_navigation.laser import LaserMount, prepare_scan
 from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
@@ -22,119 +24,29 @@ from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
 
 @dataclass
 class MapperConfig:
-    """When to update (gmapping's wrapper parameters) plus the filter's ``RbpfConfig``."""
+    """When to update (gmapping's wrapper parameters) plus the filter's ``RbpfConfig``; read
+    with ``ascc_common.params.from_params`` (gmapping's names)."""
 
-    linear_update: float = 1.0      # [linearUpdate] translation [m] that triggers an update
-    angular_update: float = 0.5     # [angularUpdate] rotation [rad] that triggers an update
-    temporal_update: float = -1.0   # [temporalUpdate] update anyway after this [s]; <0: never
-    max_urange: float = 80.0        # [maxUrange] usable range [m]; beams are cropped to it
-    max_range: float = -1.0         # [maxRange] beams beyond are discarded [m]; <=0: auto
-    lskip: int = 0                  # [lskip] match with every (lskip+1)-th beam
-    throttle_scans: int = 1         # [throttle_scans] process every n-th scan only
-    odom_jump_m: float = 1.0        # odometry moving more than this [m] between two scans
-    #                                 is a jump (reset odometry / teleport): not used as motion
-    odom_jump_speed_mps: float = 1.0  # ... unless the scans are so far apart in time that a
-    #                                 robot at this speed [m/s] could have driven it (scans
-    #                                 dropped for late TF under load): then it is motion
-    rbpf: Optional[RbpfConfig] = None
-
-    def __post_init__(self):
-        if self.rbpf is None:
-            self.rbpf = RbpfConfig()
-
-
-# (ROS parameter name, attribute path, type, unit/meaning) -- defaults come from the dataclasses.
-PARAMETERS: List[Tuple[str, str, type, str]] = [
-    ("particles", "rbpf.particles", int, "number of particles"),
-    ("delta", "rbpf.delta", float, "map resolution [m/cell]"),
-    ("xmin", "rbpf.xmin", float, "initial map extent [m] (the map grows)"),
-    ("ymin", "rbpf.ymin", float, "initial map extent [m]"),
-    ("xmax", "rbpf.xmax", float, "initial map extent [m]"),
-    ("ymax", "rbpf.ymax", float, "initial map extent [m]"),
-    ("maxUrange", "max_urange", float, "usable laser range [m]"),
-    ("maxRange", "max_range", float, "beams beyond are discarded [m]; <=0: range_max - 1 cm"),
-    ("sigma", "rbpf.sigma", float, "end-point match std [m]"),
-    ("kernelSize", "rbpf.kernel_size", int, "match radius [cells] (at least 3 sigma)"),
-    ("lstep", "rbpf.lstep", float, "matcher translation step [m]"),
-    ("astep", "rbpf.astep", float, "matcher rotation step [rad]"),
-    ("iterations", "rbpf.iterations", int, "matcher step halvings"),
-    ("lsigma", "rbpf.lsigma", float, "beam likelihood std [m]"),
-    ("ogain", "rbpf.ogain", float, "likelihood divisor (weight smoothing)"),
-    ("lskip", "lskip", int, "use every (lskip+1)-th beam for matching"),
-    ("minimumScore", "rbpf.minimum_score", float, "min match score [beams] to trust matching"),
-    ("srr", "rbpf.srr", float, "odometry error: translation per translation [m/m]"),
-    ("srt", "rbpf.srt", float, "odometry error: rotation per translation [rad/m]"),
-    ("str", "rbpf.str", float, "odometry error: translation per rotation [m/rad]"),
-    ("stt", "rbpf.stt", float, "odometry error: rotation per rotation [rad/rad]"),
-    ("linearUpdate", "linear_update", float, "update after this translation [m]"),
-    ("angularUpdate", "angular_update", float, "update after this rotation [rad]"),
-    ("temporalUpdate", "temporal_update", float, "update after this time [s]; <0 off"),
-    ("resampleThreshold", "rbpf.resample_threshold", float, "resample when Neff/N below"),
-    ("occ_thresh", "rbpf.occ_thresh", float, "hits/visits above which a cell is occupied"),
-    ("throttle_scans", "throttle_scans", int, "process every n-th scan"),
-    ("motion_prior", "rbpf.motion_prior", float, "matcher pull to the sampled pose (not gmapping)"),
-    ("new_area_margin", "rbpf.new_area_margin", float,
-     "beams beyond maxUrange - motion - this [m] are not matched (not gmapping)"),
-    ("recover_score", "rbpf.recover_score", float,
-     "matched score (fraction of the beams) below which a wide heading search runs; 0 off "
-     "(not gmapping)"),
-    ("recover_angle", "rbpf.recover_angle", float, "wide heading search +- this [rad]"),
-    ("recover_step", "rbpf.recover_step", float, "wide heading search step [rad]"),
-    ("recover_gain", "rbpf.recover_gain", float,
-     "the wide search's pose is kept if it scores this much better (fraction of the beams)"),
-    ("odom_jump_m", "odom_jump_m", float, "odometry jump [m] treated as a reset (not gmapping)"),
-    ("odom_jump_speed_mps", "odom_jump_speed_mps", float,
-     "a longer step is still motion if slower than this [m/s] (not gmapping)"),
-]
-
-
-def default_parameters() -> Dict[str, Any]:
-    """``{ros_name: default}`` for every parameter in ``PARAMETERS``."""
-    cfg = MapperConfig()
-    return {name: _get(cfg, path) for name, path, _, _ in PARAMETERS}
-
-
-def config_from_parameters(values: Dict[str, Any]) -> MapperConfig:
-    """A ``MapperConfig`` from ``{ros_name: value}`` (missing names keep their defaults).
-    Raises ValueError naming the parameter if a value has the wrong type or range."""
-    cfg = MapperConfig()
-    for name, path, kind, _ in PARAMETERS:
-        if name not in values:
-            continue
-        value = values[name]
-        try:
-            if kind is int and float(value) != int(value):
-                raise ValueError
-            converted = kind(value)
-        except (TypeError, ValueError) as err:
-            raise ValueError("parameter %s: expected %s, got %r"
-                             % (name, kind.__name__, value)) from err
-        _set(cfg, path, converted)
-    if cfg.linear_update < 0 or cfg.angular_update < 0:
-        raise ValueError("linearUpdate and angularUpdate must be >= 0")
-    if not cfg.max_urange > 0:
-        raise ValueError("maxUrange must be > 0")
-    if cfg.throttle_scans < 1:
-        raise ValueError("throttle_scans must be >= 1")
-    if not (cfg.odom_jump_m > 0 and cfg.odom_jump_speed_mps >= 0):
-        raise ValueError("odom_jump_m must be > 0 and odom_jump_speed_mps >= 0")
-    cfg.rbpf.validate()
-    return cfg
-
-
-def _get(obj, path: str):
-    for part in path.split("."):
-        obj = getattr(obj, part)
-    return obj
-
-
-def _set(obj, path: str, value) -> None:
-    parts = path.split(".")
-    for part in parts[:-1]:
-        obj = getattr(obj, part)
-    if parts[-1] not in {f.name for f in fields(obj)}:
-        raise AttributeError(path)
-    setattr(obj, parts[-1], value)
+    linear_update: float = param(1.0, "[m] translation that triggers an update",
+                                 "linearUpdate", ge=0.0)
+    angular_update: float = param(0.5, "[rad] rotation that triggers an update",
+                                  "angularUpdate", ge=0.0)
+    temporal_update: float = param(-1.0, "[s] update anyway after this; <0: never",
+                                   "temporalUpdate")
+    max_urange: float = param(80.0, "[m] usable laser range; beams are cropped to it",
+                              "maxUrange", gt=0.0)
+    max_range: float = param(-1.0, "[m] beams beyond are discarded; <=0: range_max - 1 cm",
+                             "maxRange")
+    lskip: int = param(0, "match with every (lskip+1)-th beam")
+    throttle_scans: int = param(1, "process every n-th scan only", ge=1)
+    # odometry moving more than odom_jump_m between two scans is a jump (reset odometry,
+    # teleport): not used as motion, unless the scans are so far apart in time that a robot
+    # at odom_jump_speed_mps could have driven it (scans dropped for late TF under load)
+    odom_jump_m: float = param(1.0, "[m] odometry jump treated as a reset (not gmapping)",
+                               gt=0.0)
+    odom_jump_speed_mps: float = param(1.0, "[m/s] a longer step is still motion if slower "
+                                       "than this (not gmapping)", ge=0.0)
+    rbpf: RbpfConfig = nested(RbpfConfig)
 
 
 class ScanInput:

@@ -20,13 +20,14 @@ row index grows with +y of the map origin).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-from typing import Mapping, Optional, Sequence, Tuple
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import param
 from ascc_common.pose2d import compose, inverse, wrap_angle
 from ascc_navigation.laser import LaserMount
 
@@ -37,39 +38,33 @@ OBSTACLE_LOG_PENALTY = -50.0  # log-weight of a particle standing in an occupied
 
 @dataclass
 class MclParams:
-    """Filter parameters, named and defaulted as amcl's ROS parameters (units in comments)."""
+    """Filter parameters, named and defaulted as amcl's ROS parameters; read with
+    ``ascc_common.params.from_params``."""
 
-    min_particles: int = 100
-    max_particles: int = 5000
-    kld_err: float = 0.01  # max error between true and estimated distribution
-    kld_z: float = 0.99  # upper standard normal quantile, used as amcl uses it
-    update_min_d: float = 0.2  # [m] translation between filter updates
-    update_min_a: float = np.pi / 6.0  # [rad] rotation between filter updates
-    resample_interval: int = 2  # filter updates between resamplings
-    recovery_alpha_slow: float = 0.0  # 0 disables random-particle injection
-    recovery_alpha_fast: float = 0.0
-    laser_max_beams: int = 30  # beams used per scan
-    laser_z_hit: float = 0.95
-    laser_z_rand: float = 0.05
-    laser_sigma_hit: float = 0.2  # [m]
-    laser_likelihood_max_dist: float = 2.0  # [m] distance transform clipped here
-    laser_beam_exponent: float = 0.2  # weight of each beam's log-likelihood (stand-in only)
-    odom_alpha1: float = 0.2  # rotation noise from rotation
-    odom_alpha2: float = 0.2  # rotation noise from translation
-    odom_alpha3: float = 0.2  # translation noise from translation
-    odom_alpha4: float = 0.2  # translation noise from rotation
-    kld_bin_xy: float = 0.5  # [m] histogram bin used by KLD sampling (as in amcl)
-    kld_bin_yaw: float = np.deg2rad(10.0)  # [rad]
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, object]) -> MclParams:
-        """Parameters from a dict (ROS parameters, YAML); unknown keys are ignored."""
-        out = cls()
-        for f in fields(cls):
-            if f.name in values:
-                kind = type(getattr(out, f.name))
-                setattr(out, f.name, kind(values[f.name]))
-        return out
+    min_particles: int = param(100, "particles at least (KLD sampling)", ge=1)
+    max_particles: int = param(5000, "particles at most (KLD sampling)", ge=1)
+    kld_err: float = param(0.01, "max error between true and estimated distribution", gt=0.0)
+    kld_z: float = param(0.99, "upper standard normal quantile, used as amcl uses it")
+    update_min_d: float = param(0.2, "[m] translation between filter updates")
+    update_min_a: float = param(np.pi / 6.0, "[rad] rotation between filter updates")
+    resample_interval: int = param(2, "filter updates between resamplings")
+    recovery_alpha_slow: float = param(0.0, "random-particle injection; 0 disables it")
+    recovery_alpha_fast: float = param(0.0, "random-particle injection; 0 disables it")
+    laser_max_beams: int = param(30, "beams used per scan", ge=1)
+    laser_z_hit: float = param(0.95, "weight of the hit part of the likelihood field")
+    laser_z_rand: float = param(0.05, "weight of the random part of the likelihood field")
+    laser_sigma_hit: float = param(0.2, "[m] std of the hit part", gt=0.0)
+    laser_likelihood_max_dist: float = param(2.0, "[m] distance transform clipped here")
+    laser_beam_exponent: float = param(0.2, "weight of each beam's log-likelihood "
+                                       "(stand-in only)")
+    odom_alpha1: float = param(0.2, "rotation noise from rotation")
+    odom_alpha2: float = param(0.2, "rotation noise from translation")
+    odom_alpha3: float = param(0.2, "translation noise from translation")
+    odom_alpha4: float = param(0.2, "translation noise from rotation")
+    kld_bin_xy: float = param(0.5, "[m] histogram bin used by KLD sampling (as in amcl)",
+                              gt=0.0)
+    kld_bin_yaw: float = param(float(np.deg2rad(10.0)), "[rad] histogram bin used by KLD "
+                               "sampling", gt=0.0)
 
 
 class LikelihoodField:

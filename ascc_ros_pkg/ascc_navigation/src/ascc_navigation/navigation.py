@@ -25,11 +25,12 @@ the laser points in the base frame, and returns the velocity command and the goa
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence
+from typing import List, Optional, Sequence
 
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import nested, param
 from ascc_common.pose2d import transform_points, z_axis_from_quaternion
 from ascc_common.pose2d import yaw_from_quaternion as _yaw
 from ascc_navigation import controller as ctl
@@ -60,19 +61,46 @@ def goal_yaw(x: float, y: float, z: float, w: float) -> float:
 
 @dataclass
 class NavParams:
-    """Names as move_base's parameters."""
+    """Read as move_base's parameters (``ascc_common.params``; package README)."""
 
-    planner_frequency: float = 0.0  # [Hz] periodic re-planning; 0 = on map updates only
-    planner_patience: float = 5.0  # [s] without a plan before the goal is aborted
-    controller_patience: float = 3.0  # [s] blocked before a recovery stage starts
-    oscillation_distance: float = 0.3  # [m] of travel that ends a blocked episode
-    recovery_behavior_enabled: bool = True
-    clearing_rotation_allowed: bool = True
-    obstacle_range: float = 2.5  # [m] laser points nearer than this are marked on re-plans
+    planner_frequency: float = param(0.0, "[Hz] periodic re-planning; 0 = on map updates "
+                                     "only", ge=0.0)
+    planner_patience: float = param(5.0, "[s] without a plan before the goal is aborted")
+    controller_patience: float = param(3.0, "[s] blocked before a recovery stage starts")
+    oscillation_distance: float = param(0.3, "[m] of travel that ends a blocked episode")
+    recovery_behavior_enabled: bool = param(True, "run the recovery stages when blocked")
+    clearing_rotation_allowed: bool = param(True, "recovery stage 2: turn a full circle")
+    obstacle_range: float = param(2.5, "[m] laser points nearer than this are marked on "
+                                  "re-plans", "global_costmap/obstacle_layer/obstacle_range")
     progress_reset_distance: float = 0.5  # [m] of travel that resets the recovery stage
-    rotation_speed: float = 0.8  # [rad/s] of the clearing rotation
+    rotation_speed: float = param(0.8, "[rad/s] of the clearing rotation",
+                                  "stand_in/rotation_speed")
     replan_retry_period: float = 1.0  # [s] between attempts while no plan is found
-    base_cmd_timeout: float = 0.5  # [s] the base's command watchdog (driver ~cmd_timeout_s)
+    base_cmd_timeout: float = param(0.5, "[s] the base's command watchdog (the driver's "
+                                    "~cmd_timeout_s; launch arg cmd_timeout_s)",
+                                    "stand_in/base_cmd_timeout_s", ge=0.0)
+
+
+@dataclass
+class MoveBaseParams:
+    """Everything the move_base stand-in reads (move_base's names, relative to its
+    namespace): the navigator's three parameter sets and the node's own settings."""
+
+    planner: pln.PlannerParams = nested(pln.PlannerParams)
+    controller: ctl.ControllerParams = nested(ctl.ControllerParams)
+    nav: NavParams = nested(NavParams)
+    controller_frequency: float = param(10.0, "[Hz] of the control loop", gt=0.0)
+    async_planning: bool = param(True, "plan in a thread while the controller follows the "
+                                 "current path", "stand_in/async_planning")
+    scan_timeout_s: float = param(0.5, "[s] with no scan newer than this the robot stops",
+                                  "stand_in/scan_timeout_s", gt=0.0)
+    global_frame: str = param("map", "frame of plans and goals", "global_costmap/global_frame")
+    robot_base_frame: str = param("base_link", "the robot's frame",
+                                  "global_costmap/robot_base_frame")
+    transform_tolerance: float = param(0.5, "[s] a TF may be this old",
+                                       "global_costmap/transform_tolerance")
+    raytrace_range: float = param(3.0, "[m] laser points beyond are not used",
+                                  "global_costmap/obstacle_layer/raytrace_range")
 
 
 @dataclass
@@ -385,61 +413,3 @@ class Navigator:
         """State for logs and tests."""
         return {"status": self.status, "recovery_stage": self.recovery_stage,
                 "have_path": self.have_path, "last_plan_error": self.last_plan_error}
-
-
-# (dataclass, field, move_base parameter name) for every parameter the stand-in reads
-_MOVE_BASE_NAMES = (
-    ("nav", "planner_frequency", "planner_frequency"),
-    ("nav", "planner_patience", "planner_patience"),
-    ("nav", "controller_patience", "controller_patience"),
-    ("nav", "oscillation_distance", "oscillation_distance"),
-    ("nav", "recovery_behavior_enabled", "recovery_behavior_enabled"),
-    ("nav", "clearing_rotation_allowed", "clearing_rotation_allowed"),
-    ("nav", "obstacle_range", "global_costmap/obstacle_layer/obstacle_range"),
-    ("nav", "rotation_speed", "stand_in/rotation_speed"),
-    ("nav", "base_cmd_timeout", "stand_in/base_cmd_timeout_s"),
-    ("planner", "allow_unknown", "NavfnROS/allow_unknown"),
-    ("planner", "default_tolerance", "NavfnROS/default_tolerance"),
-    ("planner", "robot_radius", "global_costmap/robot_radius"),
-    ("planner", "footprint_padding", "global_costmap/footprint_padding"),
-    ("planner", "inflation_radius", "global_costmap/inflation_layer/inflation_radius"),
-    ("planner", "cost_scaling_factor", "global_costmap/inflation_layer/cost_scaling_factor"),
-    ("planner", "resolution", "stand_in/planner_resolution"),
-    ("planner", "inflation_weight", "stand_in/inflation_weight"),
-    ("planner", "unknown_cost", "stand_in/unknown_cost"),
-    ("controller", "robot_radius", "global_costmap/robot_radius"),
-    ("controller", "lookahead", "stand_in/lookahead"),
-    ("controller", "rotate_in_place_angle", "stand_in/rotate_in_place_angle"),
-    ("controller", "blocked_turn_angle", "stand_in/blocked_turn_angle"),
-    ("controller", "obstacle_margin", "stand_in/obstacle_margin"),
-    ("controller", "obstacle_horizon", "stand_in/obstacle_horizon"),
-) + tuple(("controller", n, "TrajectoryPlannerROS/" + n) for n in (
-    "max_vel_x", "min_vel_x", "max_vel_theta", "min_in_place_vel_theta", "acc_lim_x",
-    "acc_lim_theta", "xy_goal_tolerance", "yaw_goal_tolerance"))
-
-
-def params_from_move_base(get: Callable[[str, object], object]):
-    """(PlannerParams, ControllerParams, NavParams) from move_base-named parameters.
-
-    ``get(name, default)`` returns the parameter ``name`` (e.g. "NavfnROS/allow_unknown",
-    relative to the move_base namespace) or ``default``.
-    """
-    out = {"planner": pln.PlannerParams(), "controller": ctl.ControllerParams(),
-           "nav": NavParams()}
-    for group, attr, name in _MOVE_BASE_NAMES:
-        obj = out[group]
-        default = getattr(obj, attr)
-        setattr(obj, attr, type(default)(get(name, default)))
-    return out["planner"], out["controller"], out["nav"]
-
-
-def nested_getter(tree: dict) -> Callable[[str, object], object]:
-    """A ``get(name, default)`` over a nested dict (a YAML file), names split at '/'."""
-    def get(name: str, default: object) -> object:
-        node: object = tree
-        for part in name.split("/"):
-            if not isinstance(node, dict) or part not in node:
-                return default
-            node = node[part]
-        return node
-    return get

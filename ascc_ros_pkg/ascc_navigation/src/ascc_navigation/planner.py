@@ -28,6 +28,7 @@ import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import param
 
 OCCUPIED_MIN = 65  # occupancy value [0..100] from which a map cell is an obstacle
 UNIT = 1000  # integer cost of one straight step over a free cell
@@ -38,17 +39,26 @@ INF = 2 ** 62  # cost-to-goal of cells not reached (stays far from int64 overflo
 
 @dataclass
 class PlannerParams:
-    """Planner parameters; the ROS names are move_base's (see the package README)."""
+    """Planner parameters, read as move_base's (``ascc_common.params``; package README)."""
 
-    robot_radius: float = 0.17  # [m] iRobot Create: 0.33 m diameter
-    footprint_padding: float = 0.05  # [m] extra clearance planned paths keep to obstacles
-    inflation_radius: float = 0.55  # [m] costs fall to zero at this clearance
-    cost_scaling_factor: float = 10.0  # [1/m] decay of the inflation cost
-    inflation_weight: float = 5.0  # extra step cost (x free step) right at the robot radius
-    allow_unknown: bool = True  # plan through unknown cells (explore needs it)
-    unknown_cost: float = 0.5  # extra step cost (x free step) of an unknown cell
-    resolution: float = 0.1  # [m] planning grid resolution (>= map resolution)
-    default_tolerance: float = 0.2  # [m] an unreachable goal may move this far to a free cell
+    robot_radius: float = param(0.17, "[m] iRobot Create: 0.33 m diameter",
+                                "global_costmap/robot_radius", gt=0.0)
+    footprint_padding: float = param(0.05, "[m] extra clearance planned paths keep to "
+                                     "obstacles", "global_costmap/footprint_padding", ge=0.0)
+    inflation_radius: float = param(0.55, "[m] costs fall to zero at this clearance",
+                                    "global_costmap/inflation_layer/inflation_radius")
+    cost_scaling_factor: float = param(10.0, "[1/m] decay of the inflation cost",
+                                       "global_costmap/inflation_layer/cost_scaling_factor")
+    inflation_weight: float = param(5.0, "extra step cost (x free step) right at the robot "
+                                    "radius", "stand_in/inflation_weight")
+    allow_unknown: bool = param(True, "plan through unknown cells (explore needs it)",
+                                "NavfnROS/allow_unknown")
+    unknown_cost: float = param(0.5, "extra step cost (x free step) of an unknown cell",
+                                "stand_in/unknown_cost")
+    resolution: float = param(0.1, "[m] planning grid resolution (>= map resolution)",
+                              "stand_in/planner_resolution", gt=0.0)
+    default_tolerance: float = param(0.2, "[m] an unreachable goal may move this far to a "
+                                     "free cell", "NavfnROS/default_tolerance")
     max_rounds: int = 400  # relaxation rounds at most (a safety net, see ``plan``)
 
 

@@ -39,6 +39,7 @@ import cv2
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import param
 from ascc_common.pose2d import compose, wrap_angle
 from ascc_navigation.grid import occupancy_from_counts
 from ascc_navigation.laser import PreparedScan
@@ -53,40 +54,44 @@ _MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 
 
 @dataclass
 class RbpfConfig:
-    """Filter parameters; names follow gmapping's ROS parameters (in brackets) and units."""
+    """Filter parameters, read as gmapping's ROS parameters (``ascc_common.params``)."""
 
-    particles: int = 30             # [particles] number of particles
-    delta: float = 0.05             # [delta] cell size [m]
-    xmin: float = -10.0             # [xmin..ymax] initial map extent [m] (grows as needed)
-    ymin: float = -10.0
-    xmax: float = 10.0
-    ymax: float = 10.0
-    sigma: float = 0.05             # [sigma] std [m] of the end-point match score
-    kernel_size: int = 1            # [kernelSize] match radius [cells], at least 3 sigma
-    lstep: float = 0.05             # [lstep] initial translation step of the matcher [m]
-    astep: float = 0.05             # [astep] initial rotation step of the matcher [rad]
-    iterations: int = 5             # [iterations] step halvings of the matcher
-    lsigma: float = 0.075           # [lsigma] std [m] of the beam likelihood
-    ogain: float = 3.0              # [ogain] divides the log-likelihood (smooths weights)
-    minimum_score: float = 0.0      # [minimumScore] below it the odometry pose is kept
-    srr: float = 0.1                # [srr] translation noise per metre of translation
-    srt: float = 0.2                # [srt] rotation noise [rad] per metre of translation
-    str: float = 0.1                # [str] translation noise [m] per radian of rotation
-    stt: float = 0.2                # [stt] rotation noise per radian of rotation
-    resample_threshold: float = 0.5  # [resampleThreshold] N_eff/N below which to resample
-    occ_thresh: float = 0.25        # [occ_thresh] hits/visits above which a cell is occupied
+    particles: int = param(30, "number of particles")
+    delta: float = param(0.05, "[m/cell] map resolution")
+    xmin: float = param(-10.0, "[m] initial map extent (the map grows as needed)")
+    ymin: float = param(-10.0, "[m] initial map extent")
+    xmax: float = param(10.0, "[m] initial map extent")
+    ymax: float = param(10.0, "[m] initial map extent")
+    sigma: float = param(0.05, "[m] std of the end-point match score")
+    kernel_size: int = param(1, "[cells] match radius, at least 3 sigma", "kernelSize")
+    lstep: float = param(0.05, "[m] initial translation step of the matcher")
+    astep: float = param(0.05, "[rad] initial rotation step of the matcher")
+    iterations: int = param(5, "step halvings of the matcher")
+    lsigma: float = param(0.075, "[m] std of the beam likelihood")
+    ogain: float = param(3.0, "divides the log-likelihood (smooths weights)")
+    minimum_score: float = param(0.0, "[beams] below this match score the odometry pose is "
+                                 "kept", "minimumScore")
+    srr: float = param(0.1, "[m/m] translation noise per metre of translation")
+    srt: float = param(0.2, "[rad/m] rotation noise per metre of translation")
+    str: float = param(0.1, "[m/rad] translation noise per radian of rotation")
+    stt: float = param(0.2, "[rad/rad] rotation noise per radian of rotation")
+    resample_threshold: float = param(0.5, "N_eff/N below which to resample",
+                                      "resampleThreshold")
+    occ_thresh: float = param(0.25, "hits/visits above which a cell is occupied")
     grow_margin: float = 2.0        # extra map [m] added on a side when the map grows
     search_margin: float = 0.5      # [m] how far the matcher may move a pose (window size)
     # Not in gmapping: the matcher maximises score - motion_prior * |x - x_sampled|^2_Sigma,
     # Sigma from the motion model (floored at prior_min_xy/prior_min_theta), so a pose cannot
     # slide along a direction the scan does not constrain (corridors); 0 disables it.
-    motion_prior: float = 1.0       # [beams per sigma^2]
+    motion_prior: float = param(1.0, "[beams per sigma^2] matcher pull to the sampled pose "
+                                "(not gmapping)")
     prior_min_xy: float = 0.02      # [m]
     prior_min_theta: float = 0.02   # [rad]
     # Not in gmapping: beams longer than maxUrange - (distance moved + this margin) are not
     # matched. They reach beyond what the previous scan could see, i.e. beyond the mapped part
     # of a wall, and would pull the pose back onto it: corridors would come out short.
-    new_area_margin: float = 0.1    # [m]
+    new_area_margin: float = param(0.1, "[m] beams beyond maxUrange - motion - this are not "
+                                   "matched (not gmapping)")
     # Not in gmapping: re-localisation of a particle whose matched scan fits its map badly
     # (fewer than recover_score of the beams, as a fraction of the perfect score): odometry
     # that turned by an unmodelled amount (a wheel slip, odometry stamped late while the
@@ -94,10 +99,12 @@ class RbpfConfig:
     # there is bent for good. Headings within +-recover_angle in recover_step steps are
     # scored, the best is refined by hill climbing without the motion prior, and it is kept
     # if it scores at least recover_gain (fraction of the beams) better. 0 disables it.
-    recover_score: float = 0.7      # [fraction of the perfect match score]
-    recover_angle: float = 0.7      # [rad]
-    recover_step: float = 0.035     # [rad]
-    recover_gain: float = 0.1       # [fraction of the perfect match score]
+    recover_score: float = param(0.7, "[fraction of the perfect match score] below it a wide "
+                                 "heading search runs; 0 off (not gmapping)")
+    recover_angle: float = param(0.7, "[rad] wide heading search +- this")
+    recover_step: float = param(0.035, "[rad] wide heading search step")
+    recover_gain: float = param(0.1, "[fraction of the perfect match score] the wide search's "
+                                "pose is kept if it scores this much better")
 
     def validate(self) -> None:
         if self.particles < 1:
