@@ -28,6 +28,7 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import nested, param
 
 from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
 from .planner import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
@@ -55,12 +56,31 @@ NONE = "none"
 
 @dataclass
 class ExplorerParams:
-    progress_timeout_s: float = 30.0         # no progress for this long -> blacklist [s]
-    progress_min_m: float = 0.3              # progress = path length shrinks by this [m]
-    goal_frontier_tolerance_m: float = 0.5   # goal still a frontier if a candidate is closer
-    done_confirmations: int = 2              # empty plans in a row before finishing
-    return_to_start: bool = False            # drive back to the start pose when done
-    start_tolerance_m: float = 0.5           # already at the start if closer than this [m]
+    """The loop's rules (``ascc_common.params``)."""
+
+    progress_timeout_s: float = param(30.0, "[s] no progress for this long -> blacklist")
+    progress_min_m: float = param(0.3, "[m] progress = path length shrinks by this")
+    goal_frontier_tolerance_m: float = param(0.5, "[m] goal still a frontier if a candidate "
+                                             "is closer")
+    done_confirmations: int = param(2, "empty plans in a row before finishing")
+    return_to_start: bool = param(False, "drive back to the start pose when done")
+    start_tolerance_m: float = param(0.5, "[m] already at the start if closer than this")
+
+
+@dataclass
+class ExplorerNodeParams:
+    """Everything the frontier_explorer node reads (private parameters)."""
+
+    planner: PlannerParams = nested(PlannerParams)
+    explorer: ExplorerParams = nested(ExplorerParams)
+    robot_frame: str = param("base_link", "robot frame looked up in the map's frame")
+    free_max_percent: int = param(19, "[%] occupancy up to which a cell is free")
+    occupied_min_percent: int = param(65, "[%] occupancy from which a cell is occupied")
+    tf_timeout_s: float = param(0.2, "[s] wait for the robot's transform")
+    max_marker_points: int = param(5000, "points per marker namespace (subsampled)")
+    shutdown_when_done: bool = param(False, "exit after done")
+    planning_period_s: float = param(1.0, "[s] planning timer period", gt=0.0)
+    autostart: bool = param(True, "explore without ~start")
 
 
 @dataclass

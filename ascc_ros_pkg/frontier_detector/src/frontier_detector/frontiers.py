@@ -38,6 +38,7 @@ import cv2
 import numpy as np
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
+from ascc_common.params import param
 
 from .paths import CoarseGraph, block_size, build_graph, path_lengths
 
@@ -53,17 +54,18 @@ OFF_MAP = 50                                       # padding value, see _window_
 
 @dataclass
 class FrontierParams:
-    """Parameters of the three phases; lengths in metres."""
+    """Parameters of the three phases; lengths in metres (``ascc_common.params``)."""
 
-    neighbourhood_cells: int = 1         # phase 1: unknown cell within this many cells
-    min_frontier_size_m: float = 0.35    # phase 2: shortest frontier segment kept [m]
-    footprint_radius_m: float = 0.3      # phase 2: clearance from obstacles [m] (see README)
-    robot_snap_radius_m: float = 0.5     # robot cell moved to the nearest traversable one [m]
-    cluster_size_m: float = 2.0          # phase 3: longest cluster along its segment [m]
-    path_resolution_m: float = 0.25      # block size of the path-length grid [m] (capped)
-    goal_search_radius_m: float = 0.6    # phase 3: goal within this of the centroid [m]
-    observe_range_m: float = 2.5         # unreachable segments: view point within this [m]
-    observe_rays: int = 72               # rays searched for a view point
+    neighbourhood_cells: int = param(1, "phase 1: unknown cell within this many cells")
+    min_frontier_size_m: float = param(0.35, "[m] phase 2: shortest frontier segment kept")
+    footprint_radius_m: float = param(0.3, "[m] phase 2: clearance from obstacles (README)")
+    robot_snap_radius_m: float = param(0.5, "[m] robot cell moved to the nearest traversable "
+                                       "one within this")
+    cluster_size_m: float = param(2.0, "[m] phase 3: longest cluster along its segment")
+    path_resolution_m: float = param(0.25, "[m] block size of the path-length grid (capped)")
+    goal_search_radius_m: float = param(0.6, "[m] phase 3: goal within this of the centroid")
+    observe_range_m: float = param(2.5, "[m] unreachable segments: view point within this")
+    observe_rays: int = param(72, "rays searched for a view point")
 
     def validate(self) -> None:
         if self.neighbourhood_cells < 1:

@@ -17,6 +17,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.params import nested, param
 
 from .frontiers import (
     STATUS_EMPTY_MAP,
@@ -35,11 +36,12 @@ STATUS_NO_GAIN = "no_informative_frontiers"     # all left see < min_info_gain_m
 
 @dataclass
 class PlannerParams:
-    frontier: FrontierParams = field(default_factory=FrontierParams)
-    utility: UtilityParams = field(default_factory=UtilityParams)
-    scenario: ScenarioParams = field(default_factory=ScenarioParams)
-    strategy: str = "utility"              # "utility" (eq. 2.1) or "nearest"
-    blacklist_radius_m: float = 0.5        # candidates this close to a blacklisted point [m]
+    frontier: FrontierParams = nested(FrontierParams)
+    utility: UtilityParams = nested(UtilityParams)
+    scenario: ScenarioParams = nested(ScenarioParams)
+    strategy: str = param("utility", '"utility" (eq. 2.1) or "nearest"', choices=STRATEGIES)
+    blacklist_radius_m: float = param(0.5, "[m] candidates this close to a blacklisted point "
+                                      "are skipped")
 
     def validate(self) -> None:
         if self.strategy not in STRATEGIES:

@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from ascc_common.grid import FREE, OCCUPIED
+from ascc_common.params import param
 
 ROOM = "room"
 CORRIDOR = "corridor"
@@ -29,11 +30,14 @@ CORRIDOR = "corridor"
 
 @dataclass
 class ScenarioParams:
-    radius_m: float = 4.0                 # look this far around the robot [m]
-    corridor_max_width_m: float = 2.5     # wider free space is a room [m]
-    corridor_min_elongation: float = 1.8  # sqrt eigenvalue ratio of the free cells [-]
-    w_room: float = 1.0                   # wS in rooms
-    w_corridor: float = 0.5               # wS in corridors: gain counts less than travel
+    """Room / corridor detection (``ascc_common.params``)."""
+
+    radius_m: float = param(4.0, "[m] look this far around the robot", "scenario_radius_m")
+    corridor_max_width_m: float = param(2.5, "[m] wider free space is a room")
+    corridor_min_elongation: float = param(1.8, "[-] sqrt eigenvalue ratio of the free cells")
+    w_room: float = param(1.0, "wS in rooms", "w_scenario_room")
+    w_corridor: float = param(0.5, "wS in corridors: gain counts less than travel",
+                              "w_scenario_corridor")
 
 
 @dataclass

@@ -31,24 +31,25 @@ from typing import Dict, Optional
 import numpy as np
 
 from ascc_common.grid import OCCUPIED, UNKNOWN
+from ascc_common.params import param
 
 STRATEGIES = ("utility", "nearest")
 
 
 @dataclass
 class UtilityParams:
-    """Weights and sensor model of eq. (2.1)."""
+    """Weights and sensor model of eq. (2.1) (``ascc_common.params``)."""
 
-    w_info: float = 1.0              # wI
-    w_nav: float = 1.0               # wN
-    w_loc: float = 0.1               # wL
-    sensor_range_m: float = 4.0      # ray length [m] (Hokuyo URG-04LX: 4.0 m)
-    n_rays: int = 72                 # rays per candidate over 360 deg
-    loc_sectors: int = 8             # angular sectors for U_L
-    distance_scale_m: float = 4.0    # U_N = exp(-L / distance_scale_m) [m]
-    entropy_gain: float = 0.5        # wE slope [1/nat]
-    entropy_ref: float = 0.0         # entropy [nat] at which wE starts to grow
-    min_info_gain_m2: float = 1.0    # utility strategy: skip candidates seeing less [m^2]
+    w_info: float = param(1.0, "wI")
+    w_nav: float = param(1.0, "wN")
+    w_loc: float = param(0.1, "wL")
+    sensor_range_m: float = param(4.0, "[m] ray length (Hokuyo URG-04LX: 4.0 m)")
+    n_rays: int = param(72, "rays per candidate over 360 deg")
+    loc_sectors: int = param(8, "angular sectors for U_L")
+    distance_scale_m: float = param(4.0, "[m] U_N = exp(-L / distance_scale_m)")
+    entropy_gain: float = param(0.5, "[1/nat] wE slope")
+    entropy_ref: float = param(0.0, "[nat] entropy at which wE starts to grow")
+    min_info_gain_m2: float = param(1.0, "[m^2] utility strategy: skip candidates seeing less")
 
     def validate(self) -> None:
         if self.sensor_range_m <= 0.0 or self.distance_scale_m <= 0.0:
