@@ -1,0 +1,106 @@
+"""The packages' README parameter tables against the parameter dataclasses.
+
+Every parameter a dataclass declares must be in its table, with the dataclass's default in
+the "default" column (cells list several names and defaults in the same order, separated
+by " / ", ";" or ","). Defaults written as formulas ("π/6",
+"range_max − 0.01", "random") are not compared. Names the dataclass does not declare (the
+nodes' own settings read inline) are skipped.
+"""
+import math
+import os
+import re
+
+import pytest
+
+from ascc_common.params import parameters
+from ascc_navigation.mapper import MapperConfig
+from ascc_navigation.mcl import MclParams
+from ascc_navigation.navigation import MoveBaseParams
+from frontier_detector.explorer import ExplorerNodeParams
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# README -> the dataclass of each of its parameter tables, in order
+TABLES = {
+    "ascc_ros_pkg/ascc_navigation/README.md": [MapperConfig, MclParams, MoveBaseParams],
+    "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
+}
+
+
+def _tables(text):
+    """[(header cells, rows of cells)] of the markdown tables with a "default" column."""
+    out, lines = [], text.splitlines()
+    for i, line in enumerate(lines):
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("|") and "default" in cells and "parameter" in cells[0]:
+            rows = []
+            for row in lines[i + 2:]:
+                if not row.startswith("|"):
+                    break
+                rows.append([c.strip() for c in row.strip().strip("|").split("|")])
+            out.append((cells, rows))
+    return out
+
+
+def _names(cell, known):
+    """The cell's parameter names resolved against ``known`` (None where unknown); a name
+    with a '/' (or a bare prefix ending in '/') sets the prefix of the names after it."""
+    names, prefix = [], ""
+    for token in re.findall(r"`([^`]+)`", cell):
+        if token.endswith("/"):
+            prefix = token
+            continue
+        full = next((n for n in (prefix + token, token) if n in known), None)
+        if "/" in token:
+            prefix = (full or prefix + token).rsplit("/", 1)[0] + "/"
+        names.append(full)
+    return names
+
+
+def _value(text):
+    text = re.sub(r"\(.*?\)", "", text).strip()
+    if text in ("true", "false"):
+        return text == "true"
+    try:
+        return float(text)
+    except ValueError:
+        return text if re.fullmatch(r"[A-Za-z_]+", text) else None  # formulas: None
+
+
+def _cases():
+    for readme, classes in TABLES.items():
+        with open(os.path.join(ROOT, readme)) as f:
+            tables = _tables(f.read())
+        assert len(tables) == len(classes), readme
+        for cls, (header, rows) in zip(classes, tables):
+            yield pytest.param(cls, header, rows, id="%s-%s" % (readme.split("/")[1],
+                                                                cls.__name__))
+
+
+@pytest.mark.parametrize("cls, header, rows", list(_cases()))
+def test_readme_defaults_match_the_dataclass(cls, header, rows):
+    known = {p.name: p.default for p in parameters(cls)}
+    column = header.index("default")
+    checked = set()
+    for row in rows:
+        names = _names(row[0], known)
+        values = re.split(r"\s+/\s+|;\s*|,\s*", row[column])
+        if len(values) != len(names):
+            values = row[column].split()
+        if not any(names):
+            continue
+        assert len(values) == len(names), "cannot pair %r with %r" % (row[0], row[column])
+        for name, text in zip(names, values):
+            checked.add(name)
+            value = _value(text)
+            if name is None or value is None:
+                continue
+            default = known[name]
+            if isinstance(default, (int, float)) and not isinstance(default, bool):
+                assert isinstance(value, float) and math.isclose(value, default, rel_tol=1e-3), \
+                    "%s: README says %r, the dataclass %r" % (name, text, default)
+            else:
+                assert value == default, "%s: README says %r, the dataclass %r" \
+                    % (name, text, default)
+    assert checked >= set(known), "parameters missing from the README: %s" \
+        % sorted(set(known) - checked)
