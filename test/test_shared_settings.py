@@ -1,0 +1,65 @@
+"""Settings that must agree across packages (docs/DESIGN.md, "Shared settings").
+
+cmd_timeout_s is one launch argument in the launch files that start both driver and
+navigator; these checks cover the package defaults behind it and the copies that live in
+two YAML files because two programs read them.
+"""
+import os
+import re
+
+import yaml
+
+from ascc_common.params import from_params, tree_getter
+from ascc_navigation.navigation import MoveBaseParams, NavParams
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PKG = os.path.join(ROOT, "ascc_ros_pkg")
+
+
+def _yaml(*path):
+    with open(os.path.join(PKG, *path)) as f:
+        return yaml.safe_load(f)
+
+
+def _arg_default(path, name):
+    with open(os.path.join(ROOT, path)) as f:
+        text = f.read()
+    found = re.search(r'<arg name="%s" default="([^"]*)"' % name, text)
+    assert found, "%s has no arg %s" % (path, name)
+    return float(found.group(1))
+
+
+def test_cmd_timeout_defaults_agree():
+    driver = _yaml("irobot_create_2_1", "config", "create.yaml")["cmd_timeout_s"]
+    assert NavParams().base_cmd_timeout == driver
+    for path in ("launch/explore_demo.launch", "launch/robot/create.launch",
+                 "ascc_ros_pkg/irobot_create_2_1/launch/create.launch",
+                 "ascc_ros_pkg/ascc_sim/launch/sim.launch",
+                 "ascc_ros_pkg/ascc_navigation/launch/move_base.launch",
+                 "ascc_ros_pkg/ascc_navigation/test/navigation_office.test",
+                 "ascc_ros_pkg/frontier_detector/test/explore_office_sim.test"):
+        assert _arg_default(path, "cmd_timeout_s") == driver, path
+
+
+def test_wheel_base_of_driver_and_simulated_create_agree():
+    assert _yaml("irobot_create_2_1", "config", "create.yaml")["wheel_base_m"] \
+        == _yaml("ascc_sim", "config", "asccbot.yaml")["wheel_base_m"]
+
+
+def test_move_base_costmaps_agree_and_the_stand_in_reads_them():
+    config = _yaml("ascc_navigation", "config", "move_base.yaml")
+    glob, local = config["global_costmap"], config["local_costmap"]
+    assert glob["robot_radius"] == local["robot_radius"]
+    for key in ("obstacle_range", "raytrace_range"):
+        assert glob["obstacle_layer"][key] == local["obstacle_layer"][key]
+    for key in ("inflation_radius", "cost_scaling_factor"):
+        assert glob["inflation_layer"][key] == local["inflation_layer"][key]
+    p = from_params(MoveBaseParams, tree_getter(config))
+    assert p.planner.robot_radius == p.controller.robot_radius == glob["robot_radius"]
+
+
+def test_laser_range_used_by_mapper_and_explorer_is_the_urg04lx_range():
+    urg = _yaml("ascc_sim", "config", "urg04lx.yaml")["range_max_m"]
+    usable = _yaml("ascc_navigation", "config", "gmapping.yaml")["maxUrange"]
+    assert usable == _yaml("frontier_detector", "config", "explorer.yaml")["sensor_range_m"]
+    assert usable <= urg
