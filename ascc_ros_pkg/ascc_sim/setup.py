@@ -2,4 +2,4 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["ascc_sim"], package_dir={"": "src"}))
+setup(**generate_distutils_setup(packages=["ascc_sim", "ascc_sim.ros"], package_dir={"": "src"}))

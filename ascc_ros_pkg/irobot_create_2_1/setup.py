@@ -2,4 +2,5 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["irobot_create_2_1"], package_dir={"": "src"}))
+setup(**generate_distutils_setup(packages=["irobot_create_2_1", "irobot_create_2_1.ros"],
+                                 package_dir={"": "src"}))

@@ -1,0 +1,225 @@
+"""ascc_sim simulator node: one process owns the world, every robot's true pose and its
+virtual iRobot Create behind a pseudo-terminal (the real irobot_create_2_1 driver opens
+it), and publishes /clock, the lasers and the ground truth. The simulation itself lives
+in ascc_sim.sim / ascc_sim.runner; this file wires parameters, topics and links.
+
+Parameters (private): see the package README, section "simulator".
+"""
+import json
+import os
+import sys
+import time
+import warnings
+
+import rospy
+import tf2_ros
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+from visualization_msgs.msg import MarkerArray
+
+from ascc_sim import messages as M
+from ascc_sim.laser import LaserConfig
+from ascc_sim.msg import SimObjectArray
+from ascc_sim.runner import SimRunner
+from ascc_sim.sim import RobotModel, Simulation, select_robots
+from ascc_sim.world import WorldError, load_world
+from irobot_create_2_1.pty_link import PtyLink
+from irobot_create_2_1.virtual_create import VirtualCreate
+
+
+def link_name(namespace):
+    """File name of a robot's serial link in ~link_dir (launch files build the same)."""
+    return (namespace.strip("/").replace("/", "_") or "create") + ".pty"
+
+
+class SimulatorNode:
+    def __init__(self):
+        if not rospy.has_param("~world"):
+            raise ValueError("parameter ~world (path of the world YAML) is not set")
+        world_path = str(rospy.get_param("~world"))
+        robots_arg = str(rospy.get_param("~robots", "")).split()
+        self.map_frame = rospy.get_param("~map_frame", "map")
+        seed = int(rospy.get_param("~seed", 0))
+        rtf = float(rospy.get_param("~real_time_factor", 1.0))
+        dt = float(rospy.get_param("~physics_dt_s", 0.01))
+        clock_period = float(rospy.get_param("~clock_period_s", dt))
+        truth_rate = float(rospy.get_param("~ground_truth_rate_hz", 20.0))
+        marker_rate = float(rospy.get_param("~marker_rate_hz", 2.0))
+        self.link_dir = rospy.get_param("~link_dir", "/tmp/ascc_sim_%d" % os.getpid())
+        map_to_odom = bool(rospy.get_param("~publish_map_to_odom", False))
+        max_sim_time = float(rospy.get_param("~max_sim_time_s", 0.0))
+        self.stats_file = rospy.get_param("~stats_file", "")
+        self.wait_drivers_s = float(rospy.get_param("~wait_for_drivers_s", 30.0))
+        self.wait_scans = bool(rospy.get_param("~wait_for_scan_subscribers", False))
+        self.model = RobotModel.from_dict(rospy.get_param("~robot", {}))
+        self.laser_cfg = LaserConfig.from_dict(rospy.get_param("~laser", {}))
+        for name, value in (("physics_dt_s", dt), ("clock_period_s", clock_period),
+                            ("ground_truth_rate_hz", truth_rate),
+                            ("marker_rate_hz", marker_rate),
+                            ("laser/scan_period_s", self.laser_cfg.scan_period_s)):
+            if not value > 0:
+                raise ValueError("~%s must be > 0, got %g" % (name, value))
+
+        self.world = load_world(world_path, self.model.radius_m)
+        self.specs = select_robots(self.world, robots_arg)
+        self.creates = {s.name: VirtualCreate(wheel_base_m=self.model.wheel_base_m)
+                        for s in self.specs}
+        self.sim = Simulation(self.world, self.creates, self.model, self.laser_cfg, seed)
+        os.makedirs(self.link_dir, exist_ok=True)
+        self.links = {s.name: PtyLink(self.creates[s.name],
+                                      os.path.join(self.link_dir, link_name(s.namespace)))
+                      for s in self.specs}
+        rospy.on_shutdown(self.shutdown)
+        self.runner = SimRunner(self.sim, self.links, dt, rtf, max_sim_time)
+
+        # /clock is ROS's one global clock topic. Published synchronously: a queued
+        # publisher hands every message to a writer thread, ten times the CPU at 100 Hz.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)  # "no queue_size" warning
+            self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
+        self.scan_pubs = {s.name: rospy.Publisher(M.topic_prefix(s) + "scan", LaserScan,
+                                                  queue_size=5) for s in self.specs}
+        gt = "ground_truth/"
+        self.pose_pubs = {s.name: rospy.Publisher(gt + s.name + "/pose", PoseStamped,
+                                                  queue_size=10) for s in self.specs}
+        self.odom_pubs = {s.name: rospy.Publisher(gt + s.name + "/odom", Odometry,
+                                                  queue_size=10) for s in self.specs}
+        self.start_pubs = {s.name: rospy.Publisher(gt + s.name + "/start_pose", PoseStamped,
+                                                   queue_size=1, latch=True)
+                           for s in self.specs}
+        self.map_pub = rospy.Publisher(gt + "map", OccupancyGrid, queue_size=1, latch=True)
+        self.meta_pub = rospy.Publisher(gt + "map_metadata", MapMetaData, queue_size=1,
+                                        latch=True)
+        self.objects_pub = rospy.Publisher(gt + "objects", SimObjectArray, queue_size=1,
+                                           latch=True)
+        self.people_pub = rospy.Publisher(gt + "people", SimObjectArray, queue_size=5,
+                                          latch=True)
+        self.marker_pub = rospy.Publisher(gt + "markers", MarkerArray, queue_size=1,
+                                          latch=True)
+        self.markers = M.MarkerBuilder(self.world, self.map_frame, self.model.radius_m)
+        self.static_tf = tf2_ros.StaticTransformBroadcaster()
+        self._publish_static(map_to_odom)
+
+        self.runner.every(clock_period, self.on_clock)
+        period = self.laser_cfg.scan_period_s  # 10 Hz for the URG-04LX
+        for i, spec in enumerate(self.specs):  # spread the robots' scans over the period
+            self.runner.every(period, lambda t, s=spec: self.on_scan(t, s),
+                              offset_s=period * i / len(self.specs))
+        self.runner.every(1.0 / truth_rate, self.on_truth)
+        self.runner.every(1.0 / marker_rate, self.on_markers)
+        rospy.loginfo("ascc_sim: world %s, robots %s, links in %s, real_time_factor %g, "
+                      "seed %d", self.world.path,
+                      ", ".join("%s (ns '%s')" % (s.name, s.namespace) for s in self.specs),
+                      self.link_dir, rtf, seed)
+
+    def _publish_static(self, map_to_odom):
+        m = self.model
+        tfs = []
+        for s in self.specs:
+            odom, base, laser = M.frame_names(s)
+            tfs.append(M.static_transform(0.0, base, laser, m.laser_x_m, m.laser_y_m,
+                                          m.laser_z_m, m.laser_yaw_rad))
+            if map_to_odom:  # the driver's odom starts at the start pose
+                tfs.append(M.static_transform(0.0, self.map_frame, odom, s.pose.x, s.pose.y,
+                                              0.0, s.pose.yaw))
+            self.start_pubs[s.name].publish(M.truth_pose(0.0, self.map_frame, *s.pose))
+        self.static_tf.sendTransform(tfs)
+        self.map_pub.publish(M.occupancy_grid(self.world.truth_map, 0.0, self.map_frame))
+        self.meta_pub.publish(M.map_metadata(self.world.truth_map, 0.0))
+        self.objects_pub.publish(M.objects_array(
+            0.0, self.map_frame, [M.world_object(o) for o in self.world.objects]))
+
+    # --- periodic outputs (simulated time) ------------------------------------------------
+    def on_clock(self, t):
+        self.clock_pub.publish(M.clock(t))
+
+    # Outputs nobody subscribes to are not computed (scan noise is keyed by time, so
+    # skipping scans does not change the others).
+    def on_scan(self, t, spec):
+        pub = self.scan_pubs[spec.name]
+        if pub.get_num_connections():
+            pub.publish(M.laser_scan(t, M.frame_names(spec)[2], self.laser_cfg,
+                                     self.sim.scan(spec.name)))
+
+    def on_truth(self, t):
+        for r in self.sim.robots:
+            if self.pose_pubs[r.name].get_num_connections():
+                self.pose_pubs[r.name].publish(M.truth_pose(t, self.map_frame, r.x, r.y,
+                                                            r.yaw))
+            if self.odom_pubs[r.name].get_num_connections():
+                self.odom_pubs[r.name].publish(M.truth_odometry(
+                    t, self.map_frame, M.frame_names(r.spec)[1], r.x, r.y, r.yaw, r.v, r.w))
+        if self.sim.people and self.people_pub.get_num_connections():
+            self.people_pub.publish(M.objects_array(t, self.map_frame, [
+                M.person_object(p.spec, st)
+                for p, st in zip(self.sim.people, self.sim.people_states)]))
+
+    def on_markers(self, t):
+        if not self.marker_pub.get_num_connections():
+            return
+        self.marker_pub.publish(self.markers.markers(
+            t, [(r.name, r.x, r.y, r.yaw) for r in self.sim.robots],
+            [(p.spec, st) for p, st in zip(self.sim.people, self.sim.people_states)]))
+
+    # --- main loop --------------------------------------------------------------------------
+    def wait_ready(self):
+        """Hold the clock at 0 until every driver has opened its link and sent its start
+        sequence (and, if asked, every scan has a subscriber), at most
+        ~wait_for_drivers_s of wall time: simulated time starts when the robots listen."""
+        deadline = time.monotonic() + self.wait_drivers_s
+        while not rospy.is_shutdown():
+            for link in self.links.values():
+                link.pump()
+            missing = [n for n, link in self.links.items() if link.bytes_in == 0]
+            if self.wait_scans:
+                missing += ["a subscriber of %s" % p.resolved_name
+                            for p in self.scan_pubs.values() if not p.get_num_connections()]
+            if not missing:
+                return
+            if time.monotonic() > deadline:
+                if self.wait_drivers_s > 0:
+                    rospy.logwarn("ascc_sim: starting without %s after %.0f s (no driver "
+                                  "on the link?)", ", ".join(missing), self.wait_drivers_s)
+                return
+            self.on_clock(0.0)
+            time.sleep(0.05)
+
+    def spin(self):
+        self.wait_ready()
+        self.runner.start()
+        while not rospy.is_shutdown() and not self.runner.done:
+            self.runner.step()
+        if self.runner.done:
+            rospy.loginfo("ascc_sim: reached ~max_sim_time_s %.1f s: real-time factor %.2f",
+                          self.runner.max_sim_time_s,
+                          self.runner.achieved_real_time_factor())
+            self.write_stats()
+            rospy.signal_shutdown("max_sim_time_s reached")
+
+    def write_stats(self):
+        if not self.stats_file:
+            return
+        with open(self.stats_file, "w", encoding="utf-8") as f:
+            json.dump(self.runner.stats(), f, indent=1, sort_keys=True)
+
+    def shutdown(self):
+        for link in self.links.values():
+            link.close()
+        try:
+            os.rmdir(self.link_dir)
+        except OSError:
+            pass  # not empty (someone else's files) or already gone: leave it
+
+
+def main():
+    rospy.init_node("simulator")
+    try:
+        node = SimulatorNode()
+    except (WorldError, KeyError, ValueError, OSError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        rospy.logfatal("ascc_sim: %s", msg)
+        sys.exit(1)
+    node.spin()
+

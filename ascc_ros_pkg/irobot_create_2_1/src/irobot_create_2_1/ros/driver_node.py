@@ -1,0 +1,413 @@
+"""ROS driver for the first-generation iRobot Create (Open Interface over serial).
+
+Interface-compatible with Brown University's irobot_create_2_1: publishes `sensorPacket`,
+`odom` (+ TF odom->base_link), subscribes `cmd_vel`, serves tank/turn/circle/brake/leds/
+demo/dock/song. Adds `battery`, `hazards` and `/diagnostics`. The protocol, odometry and
+safety logic live in irobot_create_2_1.driver_core; this file only wires ROS to it.
+"""
+import math
+import threading
+import time
+
+import diagnostic_updater
+import rospy
+import tf2_ros
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import Quaternion, TransformStamped, Twist
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import BatteryState
+
+from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
+from irobot_create_2_1 import protocol, sensor_state
+from irobot_create_2_1.driver_core import CreateDriverCore, Throttle
+from irobot_create_2_1.link import SerialLink
+from irobot_create_2_1.msg import Hazards, SensorPacket
+from irobot_create_2_1.odometry import twist_covariance
+from irobot_create_2_1.srv import (
+    Brake,
+    BrakeResponse,
+    Circle,
+    CircleResponse,
+    Demo,
+    DemoResponse,
+    Dock,
+    DockResponse,
+    Leds,
+    LedsResponse,
+    Song,
+    SongResponse,
+    Tank,
+    TankResponse,
+    Turn,
+    TurnResponse,
+)
+
+WARN_PERIOD_S = 5.0
+
+
+class CreateDriverNode:
+    def __init__(self):
+        self.port = rospy.get_param("~port", "/dev/ttyUSB0")
+        baud = int(rospy.get_param("~baud", 57600))
+        self.odom_frame = rospy.get_param("~odom_frame", "odom")
+        self.base_frame = rospy.get_param("~base_frame", "base_link")
+        self.publish_tf = bool(rospy.get_param("~publish_tf", True))
+        self.sensor_timeout_s = float(rospy.get_param("~sensor_timeout_s", 1.0))
+        publish_rate_hz = float(rospy.get_param("~publish_rate_hz", 30.0))
+        cmd_rate_hz = float(rospy.get_param("~cmd_rate_hz", 20.0))
+        self.core = CreateDriverCore(
+            wheel_base_m=float(rospy.get_param("~wheel_base_m", 0.258)),
+            mode=rospy.get_param("~mode", "safe"),
+            cmd_timeout_s=float(rospy.get_param("~cmd_timeout_s", 0.5)),
+            stop_on_bump=bool(rospy.get_param("~stop_on_bump", True)),
+            max_wheel_speed_m_s=float(rospy.get_param("~max_wheel_speed_m_s", 0.5)))
+        self.link = SerialLink(self.port, baud)
+        self.lock = threading.Lock()
+        self.publish_period = rospy.Duration(1.0 / max(publish_rate_hz, 1e-3))
+        self.last_publish = None
+        self.last_pose = None  # (time, x, y, theta) of the last odom message
+        self.last_init = -math.inf
+        self.stopping = False  # set by shutdown(): no more commands, no reopening
+        self.throttle = Throttle(WARN_PERIOD_S)  # one period per kind of warning
+        self.corrupt_reported = (0, 0, 0)  # parser counters named in the last warning
+
+        self.odom_pub = rospy.Publisher("odom", Odometry, queue_size=10)
+        self.packet_pub = rospy.Publisher("sensorPacket", SensorPacket, queue_size=10)
+        self.hazard_pub = rospy.Publisher("hazards", Hazards, queue_size=10)
+        self.battery_pub = rospy.Publisher("battery", BatteryState, queue_size=1)
+        self.tf_pub = tf2_ros.TransformBroadcaster()
+        rospy.Subscriber("cmd_vel", Twist, self.on_cmd_vel, queue_size=1)
+        self._services()
+
+        self.diag = diagnostic_updater.Updater()
+        self.diag.setHardwareID("iRobot Create @ %s" % self.port)
+        self.diag.add("serial link", self.diag_link)
+        self.diag.add("battery", self.diag_battery)
+        self.diag.add("safety", self.diag_safety)
+
+        rospy.on_shutdown(self.shutdown)
+        self.reader = threading.Thread(target=self.read_loop, name="create_reader", daemon=True)
+        self.reader.start()
+        rospy.Timer(rospy.Duration(1.0 / cmd_rate_hz), self.on_cmd_timer)
+        rospy.Timer(rospy.Duration(1.0), self.on_slow_timer)
+        rospy.loginfo("create driver: port %s, mode %s, cmd_timeout_s %.2f",
+                      self.port, self.core.mode, self.core.cmd_timeout_s)
+
+    def _services(self):
+        def srv(name, cls, resp, handler):
+            rospy.Service(name, cls, lambda req: resp(self._guard(handler, req)))
+        srv("tank", Tank, TankResponse, self.srv_tank)
+        srv("turn", Turn, TurnResponse, self.srv_turn)
+        srv("circle", Circle, CircleResponse, self.srv_circle)
+        srv("brake", Brake, BrakeResponse, self.srv_brake)
+        srv("leds", Leds, LedsResponse,
+            lambda r: self.write(protocol.leds(r.play, r.advance, r.color, r.intensity)))
+        srv("demo", Demo, DemoResponse, lambda r: self.write(protocol.demo(r.demo)))
+        srv("dock", Dock, DockResponse,
+            lambda r: self.write(protocol.cover_and_dock()) if r.dock else True)
+        srv("song", Song, SongResponse,
+            lambda r: self.write(protocol.song(0, list(bytearray(r.notes)),
+                                               list(bytearray(r.durations)))
+                                 + protocol.play(0)))
+
+    @staticmethod
+    def _guard(handler, req):
+        try:
+            return bool(handler(req))
+        except ValueError as exc:
+            rospy.logwarn("create driver: service request refused: %s", exc)
+            return False
+
+    # --- I/O ----------------------------------------------------------------------------
+    def write(self, data):
+        with self.lock:
+            return not self.stopping and self.link.write(data)
+
+    def warn(self, kind, text):
+        """Warn at most once per WARN_PERIOD_S per kind (rospy's throttle keys on the
+        calling line, so one line logging several kinds would let one hide the others)."""
+        with self.lock:
+            ready = self.throttle.ready(kind, rospy.get_time())
+        if ready:
+            rospy.logwarn("create driver: " + text)
+
+    def read_loop(self):
+        was_open = False
+        while not rospy.is_shutdown():
+            with self.lock:
+                if self.stopping:
+                    return  # shutdown() closes the port once this thread is gone
+                opened = self.link.ensure_open()
+                if opened and not was_open:
+                    rospy.loginfo("create driver: %s open, starting the stream", self.port)
+                    self.link.write(self.core.init_sequence())
+                    self.last_init = time.monotonic()
+                elif was_open and not opened:
+                    rospy.logwarn("create driver: lost %s (%s); reopening with back-off",
+                                  self.port, self.link.last_error)
+                was_open = opened
+            if not opened:
+                rospy.logwarn_throttle(WARN_PERIOD_S, "create driver: cannot open %s: %s"
+                                       % (self.port, self.link.last_error))
+                time.sleep(0.05)
+                continue
+            data = self.link.read()  # blocks up to the read timeout, outside the lock
+            if not data:
+                continue
+            try:
+                now = rospy.Time.now()
+            except rospy.ROSException:
+                return  # shutting down
+            try:
+                self.handle_bytes(data, now)
+            except Exception as exc:  # noqa: BLE001 - the reader thread must survive
+                # A dead reader thread leaves the robot without odometry while the node
+                # looks alive; name the problem and carry on with the next bytes.
+                rospy.logerr_throttle(WARN_PERIOD_S, "create driver: %d bytes from %s not "
+                                      "processed: %s: %s" % (len(data), self.port,
+                                                             type(exc).__name__, exc))
+
+    def handle_bytes(self, data, now):
+        """Parse bytes read from the robot; publish odometry for the frames they complete."""
+        with self.lock:
+            self.core.on_bytes(data, now.to_sec())
+            poses = list(self.core.frame_poses)  # one entry per completed frame
+        if poses:
+            # Stamped when each frame was measured, not when it was read: a backlog on
+            # a busy machine would make the odometry lag, then jump. A backlog's older
+            # frames still go out as odom/TF at the publish rate, so TF interpolates
+            # along the path the robot took.
+            for stamp, pose in poses[:-1]:
+                stamp = rospy.Time.from_sec(stamp)
+                if self.last_publish is not None and \
+                        self.last_publish + self.publish_period <= stamp:
+                    self.last_publish = stamp
+                    self.publish_odom(stamp, *pose, self.core.odom.pose_covariance())
+            self.maybe_publish(rospy.Time.from_sec(poses[-1][0]))
+
+    # --- publishing -----------------------------------------------------------------------
+    def maybe_publish(self, now):
+        if self.last_publish is not None and now - self.last_publish < self.publish_period:
+            if now >= self.last_publish:
+                return
+            rospy.logwarn("create driver: time jumped back %.3f s; resetting publish timing",
+                          (self.last_publish - now).to_sec())
+            self.last_pose = None
+        self.last_publish = now
+        with self.lock:
+            values = dict(self.core.values)
+            x, y, theta = self.core.odom.pose
+            pose_cov = self.core.odom.pose_covariance()
+        self.publish_odom(now, x, y, theta, pose_cov)
+        packet = SensorPacket(**sensor_state.brown_fields(values))
+        packet.header.stamp = now
+        packet.header.frame_id = self.base_frame
+        self.packet_pub.publish(packet)
+        hz = Hazards(**sensor_state.hazards(values))
+        hz.header = packet.header
+        self.hazard_pub.publish(hz)
+
+    def publish_odom(self, now, x, y, theta, pose_cov):
+        msg = Odometry()
+        msg.header.stamp = now
+        msg.header.frame_id = self.odom_frame
+        msg.child_frame_id = self.base_frame
+        msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+        msg.pose.pose.orientation = Quaternion(*quaternion_from_yaw(theta))
+        msg.pose.covariance = pose_cov
+        if self.last_pose is not None:
+            t0, x0, y0, th0 = self.last_pose
+            dt = (now - t0).to_sec()
+            if dt > 0:
+                msg.twist.twist.linear.x = ((x - x0) * math.cos(th0)
+                                            + (y - y0) * math.sin(th0)) / dt
+                msg.twist.twist.angular.z = wrap_angle(theta - th0) / dt
+        msg.twist.covariance = twist_covariance()
+        self.last_pose = (now, x, y, theta)
+        self.odom_pub.publish(msg)
+        if self.publish_tf:
+            t = TransformStamped()
+            t.header = msg.header
+            t.child_frame_id = self.base_frame
+            t.transform.translation.x, t.transform.translation.y = x, y
+            t.transform.rotation = msg.pose.pose.orientation
+            self.tf_pub.sendTransform(t)
+
+    # --- commands -------------------------------------------------------------------------
+    def on_cmd_vel(self, msg):
+        with self.lock:
+            warning = self.core.set_twist(msg.linear.x, msg.angular.z, rospy.get_time())
+            kind = self.core.warning_kind
+        if warning:
+            self.warn(kind, warning)
+
+    def on_cmd_timer(self, event):
+        now = rospy.get_time()
+        with self.lock:
+            if self.stopping:
+                return
+            stale_before = self.core.watchdog_stops
+            data = self.core.command_bytes(now)
+            if data is not None:
+                self.link.write(data)
+            tripped = self.core.watchdog_stops > stale_before
+        if tripped:
+            rospy.logwarn_throttle(WARN_PERIOD_S, "create driver: no cmd_vel for %.2f s, "
+                                   "robot stopped" % self.core.cmd_timeout_s)
+
+    def on_slow_timer(self, event):
+        now = rospy.get_time()
+        with self.lock:
+            stale = (not self.stopping and self.link.is_open
+                     and self.core.sensors_stale(now, self.sensor_timeout_s))
+            if stale and time.monotonic() - self.last_init > 2.0:
+                # The robot may have been power-cycled: wake it and restart the stream.
+                self.link.write(self.core.init_sequence())
+                self.last_init = time.monotonic()
+            battery = sensor_state.battery_si(self.core.values)
+            p = self.core.parser
+            corrupt = (p.bad_checksum, p.bad_body, p.dropped_bytes)
+            report = corrupt != self.corrupt_reported and self.throttle.ready("corrupt", now)
+            if report:
+                d = [a - b for a, b in zip(corrupt, self.corrupt_reported)]
+                self.corrupt_reported = corrupt
+        if report:
+            rospy.logwarn("create driver: corrupt data from %s dropped: %d frame(s) with a "
+                          "bad checksum, %d with a bad header or body, %d byte(s) in all "
+                          "(since the last warning)" % (self.port, d[0], d[1], d[2]))
+        if stale:
+            rospy.logwarn_throttle(WARN_PERIOD_S, "create driver: no sensor frame from %s "
+                                   "for > %.1f s; re-sent start/stream" %
+                                   (self.port, self.sensor_timeout_s))
+        if self.core.values:
+            self.publish_battery(battery)
+        self.diag.update()
+
+    def publish_battery(self, b):
+        msg = BatteryState()
+        msg.header.stamp = rospy.Time.now()
+        msg.voltage, msg.current = b["voltage_v"], b["current_a"]
+        msg.temperature = b["temperature_c"]
+        msg.charge, msg.capacity = b["charge_ah"], b["capacity_ah"]
+        msg.design_capacity = b["capacity_ah"]
+        msg.percentage = b["percentage"]
+        msg.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH
+        msg.power_supply_status = (BatteryState.POWER_SUPPLY_STATUS_CHARGING
+                                   if b["charging_state"] in (1, 2, 3)
+                                   else BatteryState.POWER_SUPPLY_STATUS_DISCHARGING)
+        msg.present = True
+        self.battery_pub.publish(msg)
+
+    # --- services ---------------------------------------------------------------------------
+    def _clear(self, clear):
+        if clear:
+            # Demo 255 stops a running demo (or docking) but, like every Demo command,
+            # leaves the OI in passive mode, where wheel commands are ignored: take the
+            # robot back into the driver's mode, or the motion asked for never happens.
+            mode = protocol.safe() if self.core.mode == "safe" else protocol.full()
+            self.write(protocol.demo(255) + mode)
+
+    def _wheels(self, left_mm_s, right_mm_s):
+        with self.lock:
+            warning = self.core.set_wheels(left_mm_s / 1000.0, right_mm_s / 1000.0,
+                                           rospy.get_time())
+            kind = self.core.warning_kind
+        if warning:
+            self.warn(kind, warning)
+        return self.link.is_open
+
+    def srv_tank(self, req):
+        self._clear(req.clear)
+        return self._wheels(req.left, req.right)
+
+    def srv_turn(self, req):
+        self._clear(req.clear)
+        return self._wheels(-req.turn, req.turn)
+
+    def srv_circle(self, req):
+        self._clear(req.clear)
+        if req.radius == 0:
+            raise ValueError("circle radius 0 mm is not a circle")
+        v = req.speed / 1000.0
+        with self.lock:
+            warning = self.core.set_twist(v, v / (req.radius / 1000.0), rospy.get_time())
+            kind = self.core.warning_kind
+        if warning:
+            self.warn(kind, warning)
+        return self.link.is_open
+
+    def srv_brake(self, req):
+        if req.brake:
+            with self.lock:
+                self.core.stop(rospy.get_time())
+            return self.write(protocol.drive_direct(0, 0))
+        return True
+
+    # --- diagnostics ------------------------------------------------------------------------
+    def diag_link(self, stat):
+        p = self.core.parser
+        if not self.link.is_open:
+            stat.summary(DiagnosticStatus.ERROR, "port closed: %s" % self.link.last_error)
+        elif self.core.sensors_stale(rospy.get_time(), self.sensor_timeout_s):
+            stat.summary(DiagnosticStatus.WARN, "no sensor stream")
+        else:
+            stat.summary(DiagnosticStatus.OK, "streaming")
+        stat.add("port", self.port)
+        stat.add("opens", self.link.opens)
+        stat.add("failures", self.link.failures)
+        stat.add("frames ok", p.frames_ok)
+        stat.add("bad checksum", p.bad_checksum)
+        stat.add("bad body", p.bad_body)
+        stat.add("dropped bytes", p.dropped_bytes)
+        return stat
+
+    def diag_battery(self, stat):
+        b = sensor_state.battery_si(self.core.values)
+        if not self.core.values:
+            stat.summary(DiagnosticStatus.STALE, "no data")
+        elif b["percentage"] < 0.1:
+            stat.summary(DiagnosticStatus.WARN, "battery low")
+        else:
+            stat.summary(DiagnosticStatus.OK, "ok")
+        for key, value in sorted(b.items()):
+            stat.add(key, "%.3f" % value)
+        return stat
+
+    def diag_safety(self, stat):
+        h = sensor_state.hazards(self.core.values)
+        active = sorted(k for k, v in h.items() if v and k not in ("wall",))
+        stat.summary(DiagnosticStatus.WARN if active else DiagnosticStatus.OK,
+                     ", ".join(active) if active else "no hazard")
+        stat.add("watchdog stops", self.core.watchdog_stops)
+        stat.add("rejected commands", self.core.rejected_cmds)
+        stat.add("saturated commands", self.core.saturated_cmds)
+        return stat
+
+    def shutdown(self):
+        """Stop the wheels, then close the port.
+
+        rospy runs this hook before rospy.is_shutdown() turns true, so the reader thread
+        and the timers must be told by ``stopping``: otherwise the reader, blocked in a
+        read outside the lock, failed inside pyserial when the port was closed under it
+        ("'NoneType' object cannot be interpreted as an integer"), took that for a lost
+        port and reopened it - and the command timer could then send the last cmd_vel
+        again after the zero command, leaving the robot driving with no driver."""
+        with self.lock:
+            self.stopping = True
+            self.core.stop(rospy.get_time())
+            self.link.write(protocol.drive_direct(0, 0))
+        if self.reader is not threading.current_thread():
+            self.reader.join(timeout=2.0)  # returns within one read timeout (20 ms)
+        with self.lock:
+            self.link.close()
+
+
+def main():
+    rospy.init_node("irobot_create_2_1")
+    try:
+        CreateDriverNode()
+    except ValueError as exc:
+        rospy.logfatal("create driver: bad parameter: %s", exc)
+        raise SystemExit(1) from exc
+    rospy.spin()
+
