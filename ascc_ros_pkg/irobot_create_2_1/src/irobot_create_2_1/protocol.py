@@ -143,7 +143,9 @@ def packet_size(packet_id: int) -> int:
     return sum(PACKETS[pid].size for pid in expand(packet_id))
 
 
-def _limits(spec: PacketSpec) -> Tuple[int, int]:
+def value_limits(packet_id: int) -> Tuple[int, int]:
+    """(lowest, highest) value a single sensor packet can carry."""
+    spec = PACKETS[packet_id]
     bits = 8 * spec.size
     if spec.signed:
         return -(1 << (bits - 1)), (1 << (bits - 1)) - 1
@@ -153,7 +155,7 @@ def _limits(spec: PacketSpec) -> Tuple[int, int]:
 def encode_value(packet_id: int, value: int) -> bytes:
     """Wire bytes of one sensor value; ValueError when it does not fit the packet."""
     spec = PACKETS[packet_id]
-    lo, hi = _limits(spec)
+    lo, hi = value_limits(packet_id)
     value = int(value)
     if not lo <= value <= hi:
         raise ValueError("packet %d (%s) value %d outside %d..%d"
@@ -219,6 +221,11 @@ def frame_stream_packets(packet_ids: Sequence[int], values: Mapping[int, int]) -
     for pid in packet_ids:
         body.append(pid)
         body += encode_packets((pid,), values)
+    return frame_stream_body(body)
+
+
+def frame_stream_body(body: bytes) -> bytes:
+    """The stream frame ``[19, n, body.., checksum]`` around ``id, data, ...`` bytes."""
     if len(body) > 255:
         raise ValueError("stream frame body of %d bytes exceeds 255" % len(body))
     frame = bytearray((STREAM_HEADER, len(body))) + body
