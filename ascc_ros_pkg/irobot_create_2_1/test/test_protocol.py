@@ -184,3 +184,12 @@ def test_unknown_id_in_body_is_rejected():
     parser = oi.StreamParser()
     assert parser.feed(frame) == []
     assert parser.bad_body == 1
+
+
+def test_value_limits_and_frame_stream_body():
+    assert oi.value_limits(7) == (0, 255)
+    assert oi.value_limits(19) == (-32768, 32767)
+    assert oi.value_limits(24) == (-128, 127)
+    assert oi.frame_stream_body(bytes([7, 3])) == oi.frame_stream([(7, 3)])
+    with pytest.raises(ValueError):
+        oi.frame_stream_body(bytes(256))
