@@ -12,12 +12,16 @@ from frontier_detector.frontiers import (
     STATUS_ROBOT_BLOCKED,
     STATUS_ROBOT_OUTSIDE,
     FrontierParams,
+    filtering,
     find_frontiers,
+    grouping,
     label_cells,
     mask_cells,
     phase1_mask,
+    preliminary_generation,
     traversable_mask,
 )
+from frontier_detector.paths import block_size
 
 RES = 0.05
 
@@ -264,3 +268,56 @@ def test_cluster_without_safe_goal_nearby_gets_a_view_point():
     assert gc == 76 and abs(gr - 34.5) <= 1.0
     off = find_frontiers(g, RES, (30, 20), fp(goal_search_radius_m=0.05, observe_range_m=0.0))
     assert off.n_candidates == 0 and off.status == STATUS_NO_FRONTIERS
+
+
+def _door_phases(p, g=None):
+    """Phases 1 and 2 as find_frontiers runs them, on the room with a door, robot (30, 20)."""
+    g = room_with_door() if g is None else g
+    radius = p.footprint_radius_m / RES
+    k = block_size(RES, p.footprint_radius_m, p.path_resolution_m)
+    tile = k * max(1, int(round(16 / k)))
+    margin = p.neighbourhood_cells + int(np.ceil(radius)) + 1
+    pre = preliminary_generation(g, p.neighbourhood_cells, margin, tile)
+    r0, c0 = pre.window[:2]
+    filt = filtering(pre, (30 - r0, 20 - c0), RES, p, k)
+    return g, pre, filt, r0, c0, k
+
+
+def test_preliminary_generation_finds_door_cells_and_one_segment():
+    g, pre, _, r0, c0, _ = _door_phases(fp())
+    assert pre.sub.shape == (pre.window[2], pre.window[3])
+    got = cells(np.stack([pre.rows + r0, pre.cols + c0], axis=1))
+    assert got == cells(np.argwhere(phase1_mask(g, 1)))
+    assert {c for _, c in got} == {79}                       # the door column only
+    assert set(pre.segment.tolist()) == {0}
+    assert np.array_equal(pre.unknown > 0, pre.sub == UNKNOWN)
+    assert preliminary_generation(np.full((9, 9), UNKNOWN, np.int8), 1, 4, 4) is None
+
+
+def test_filtering_keeps_long_reachable_cells_with_clearance():
+    p = fp()
+    _, pre, filt, r0, c0, k = _door_phases(p)
+    assert filt.robot == (30 - r0, 20 - c0)
+    # 0.18 m footprint (3.6 cells): of door rows 25..44, those clear of the jambs survive.
+    assert set((pre.rows[filt.keep] + r0).tolist()) == set(range(28, 42))
+    assert filt.reachable(pre.rows[filt.keep], pre.cols[filt.keep]).all()
+    assert not filt.far.any()
+    blocked = room_with_door()
+    blocked[:, 70:72] = OCCUPIED                              # wall between robot and door
+    _, pre_b, filt_b, _, _, _ = _door_phases(p, blocked)
+    assert not filt_b.keep.any() and filt_b.far.any()        # long enough, out of reach
+    assert filtering(pre_b, (0, 0), RES, fp(robot_snap_radius_m=0.0), k) is None
+
+
+def test_grouping_gives_one_reachable_goal_per_cluster():
+    p = fp()
+    g, pre, filt, r0, c0, _ = _door_phases(p)
+    groups = grouping(pre, filt, RES, p)
+    assert groups.goals.shape == (1, 2) and not groups.observe_only.any()
+    assert groups.cluster_cells.tolist() == [14]
+    assert groups.goals[0, 1] + c0 == 76                      # set back from the unknown
+    assert (groups.phase2_cluster == 0).all()
+    assert filt.reachable(groups.goals[:, 0], groups.goals[:, 1]).all()
+    assert abs(groups.centroids[0, 0] + r0 - 34.5) < 1e-9
+    whole = find_frontiers(g, RES, (30, 20), p)
+    assert np.array_equal(whole.goals_rc, groups.goals + [r0, c0])

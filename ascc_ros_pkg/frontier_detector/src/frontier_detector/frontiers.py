@@ -3,28 +3,29 @@
 Input: a trinary int8 grid (see `ascc_common.grid.to_trinary`), its resolution and the
 robot's cell.
 
-Phase 1, preliminary generation: FREE cells with an UNKNOWN cell within
-    `neighbourhood_cells` (Chebyshev distance). Cells outside the grid count as not unknown:
-    there is nothing to explore beyond the map's edge.
-Phase 2, filtering: a phase-1 cell survives if
+Phase 1, preliminary generation (`preliminary_generation`): FREE cells with an UNKNOWN
+    cell within `neighbourhood_cells` (Chebyshev distance). Cells outside the grid count as
+    not unknown: there is nothing to explore beyond the map's edge.
+Phase 2, filtering (`filtering`): a phase-1 cell survives if
     - its frontier segment (8-connected component of phase-1 cells) is at least
       `min_frontier_size_m` long (cells x resolution): smaller gaps are noise or too narrow;
     - it is at least `footprint_radius_m` from every OCCUPIED cell (robot footprint fits);
     - it is reachable from the robot through such cells (8-connected flood fill).
-Phase 3, grouping: surviving cells of one segment are cut into clusters no longer than
-    `cluster_size_m` along the segment's main axis; each cluster's goal point is the cell
-    nearest its centroid (within `goal_search_radius_m`) that the robot can stand on: reachable,
-    and at least `footprint_radius_m` from occupied AND from unknown cells (the unknown
-    right behind a frontier may be a wall). Clusters without such a cell are dropped.
-    Clusters without such a cell within `goal_search_radius_m`, and the clusters of segments
-    with no reachable cell at all (behind a gap too narrow for the footprint, say), get a
-    view point instead: the nearest reachable safe cell within `observe_range_m` with a
-    line of sight to the cluster centroid (`observe_only` is True for them; 0 disables
-    this, and such clusters are dropped).
+Phase 3, grouping (`grouping`): surviving cells of one segment are cut into clusters no
+    longer than `cluster_size_m` along the segment's main axis; each cluster's goal point is
+    the cell nearest its centroid (within `goal_search_radius_m`) that the robot can stand
+    on: reachable, and at least `footprint_radius_m` from occupied AND from unknown cells
+    (the unknown right behind a frontier may be a wall). Clusters without such a cell are
+    dropped. Clusters without such a cell within `goal_search_radius_m`, and the clusters
+    of segments with no reachable cell at all (behind a gap too narrow for the footprint,
+    say), get a view point instead: the nearest reachable safe cell within
+    `observe_range_m` with a line of sight to the cluster centroid (`observe_only` is True
+    for them; 0 disables this, and such clusters are dropped).
 
 Everything is vectorised (OpenCV morphology, flood fill, connected components; numpy on the
 sparse frontier cells) and works inside the bounding box of the known cells. Each phase's
-wall time is recorded separately in `FrontierResult.timings_ms`. No ROS import here.
+wall time is recorded separately in `FrontierResult.timings_ms`; `find_frontiers` composes
+the three. No ROS import here.
 """
 
 from __future__ import annotations
@@ -457,6 +458,150 @@ def _window_view(grid: np.ndarray, window: Tuple[int, int, int, int]) -> np.ndar
     return sub
 
 
+@dataclass
+class Preliminary:
+    """Phase 1's output: the processed window of the grid and its frontier cells.
+
+    Cells are window-local (row, col); `segment` labels each cell's 8-connected segment.
+    """
+
+    window: Tuple[int, int, int, int]    # (row0, col0, rows, cols) in the full grid
+    sub: np.ndarray                      # the grid inside the window (OFF_MAP padded)
+    unknown: np.ndarray                  # uint8 0/255 mask of UNKNOWN cells of sub
+    rows: np.ndarray
+    cols: np.ndarray
+    segment: np.ndarray
+
+
+@dataclass
+class Filtered:
+    """Phase 2's output: which phase-1 cells survive, and the reachability it computed."""
+
+    robot: Tuple[int, int]               # window-local robot cell, snapped to traversable
+    traversable: np.ndarray              # uint8 255 = free with footprint clearance
+    graph: CoarseGraph
+    path_m: np.ndarray                   # path length [m] from the robot per coarse block
+    keep: np.ndarray                     # per phase-1 cell: survives the filter
+    far: np.ndarray                      # per phase-1 cell: long enough, segment unreachable
+
+    def reachable(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """bool per window-local cell: its coarse block was reached from the robot."""
+        return np.isfinite(self.path_m[self.graph.nodes(rows, cols)])
+
+
+@dataclass
+class Grouped:
+    """Phase 3's output: one goal per kept cluster (window-local cells)."""
+
+    goals: np.ndarray                    # (n, 2) goal cells
+    centroids: np.ndarray                # (n, 2) cluster centroids
+    cluster_cells: np.ndarray            # cells per cluster
+    observe_only: np.ndarray             # goal is a view point, not on the frontier
+    phase2_cluster: np.ndarray           # per surviving (phase-2) cell: its goal, or -1
+
+
+def preliminary_generation(grid: np.ndarray, neighbourhood_cells: int, margin: int,
+                           tile: int) -> Optional[Preliminary]:
+    """Phase 1: FREE cells with UNKNOWN within neighbourhood_cells, and their segments.
+
+    Works on the bounding box of the known cells grown by `margin` and aligned to `tile`
+    (see `mask_cells`); None if the grid has no known cell.
+    """
+    window = known_window(grid, margin)
+    if window is None:
+        return None
+    window = _aligned_window(grid.shape, window, tile)
+    sub = _window_view(grid, window)
+    p1, unknown = _phase1(sub, neighbourhood_cells)
+    rows, cols = mask_cells(p1, tile)
+    return Preliminary(window, sub, unknown, rows, cols, label_cells(rows, cols))
+
+
+def filtering(pre: Preliminary, robot: Tuple[int, int], resolution: float,
+              p: FrontierParams, block: int) -> Optional[Filtered]:
+    """Phase 2: keep phase-1 cells of long enough segments, with footprint clearance,
+    reachable from the robot (window-local cell, snapped within robot_snap_radius_m);
+    path lengths come out of it (coarse graph of `block` cells). None if the robot has no
+    traversable cell nearby.
+    """
+    radius_cells = p.footprint_radius_m / resolution
+    trav = traversable_mask(pre.sub, radius_cells)
+    snap = snap_to_mask(trav, robot[0], robot[1],
+                        int(math.ceil(p.robot_snap_radius_m / resolution)))
+    if snap is None:
+        return None
+    graph = build_graph(trav, block)
+    dist = path_lengths(graph, graph.node(*snap), resolution)
+    segment = pre.segment
+    seg_len_m = np.bincount(segment).astype(np.float64) * resolution
+    size_ok = seg_len_m[segment] >= p.min_frontier_size_m - 1e-9
+    keep = size_ok & (trav[pre.rows, pre.cols] > 0)
+    keep &= np.isfinite(dist[graph.nodes(pre.rows, pre.cols)])
+    # Segments without a single reachable cell (e.g. behind a gap too narrow for the
+    # footprint) are not candidates, but may be looked at from a reachable view point.
+    far = np.zeros(pre.rows.size, bool)
+    if p.observe_range_m > 0.0 and pre.rows.size:
+        seg_reached = np.bincount(segment, weights=keep.astype(np.float64)) > 0
+        far = size_ok & ~seg_reached[segment]
+    return Filtered(snap, trav, graph, dist, keep, far)
+
+
+def grouping(pre: Preliminary, filt: Filtered, resolution: float,
+             p: FrontierParams) -> Grouped:
+    """Phase 3: clusters along each segment, goal = safe cell nearest the cluster centroid
+    (or a view point, see the module docstring); clusters without a goal are dropped."""
+    radius_cells = p.footprint_radius_m / resolution
+    keep, far, segment = filt.keep, filt.far, pre.segment
+    p2_r, p2_c, seg = pre.rows[keep], pre.cols[keep], segment[keep]
+    trav = filt.traversable
+    cluster_len = p.cluster_size_m / resolution
+    cluster = np.zeros(0, np.int64)
+    centroids, size = np.zeros((0, 2)), np.zeros(0, np.int64)
+    f_centroids, f_size = np.zeros((0, 2)), np.zeros(0, np.int64)
+    if p2_r.size:
+        cluster, centroids, size = group_clusters(p2_r, p2_c, seg, cluster_len)
+    if far.any():
+        _, f_centroids, f_size = group_clusters(pre.rows[far], pre.cols[far], segment[far],
+                                                cluster_len)
+    # Unknown within the footprint radius: on small patches around each cluster, or once
+    # for the whole window when the patches would cover more than a twentieth of it.
+    near_full = None
+    patch_area = (size.size * (2 * (p.goal_search_radius_m / resolution + radius_cells)) ** 2
+                  + f_size.size * (2 * (p.observe_range_m / resolution + radius_cells)) ** 2)
+    if patch_area > 0.05 * pre.sub.size:
+        near_full = dilate_disk(pre.unknown, max(0.0, radius_cells - 1e-6))
+    # Goal: nearest cell to the centroid that is reachable and keeps the whole footprint in
+    # known space (>= footprint radius from unknown cells too: the unknown just behind a
+    # frontier may be a wall), searched within goal_search_radius_m.
+    goals = place_goals(trav, pre.unknown, centroids, p.goal_search_radius_m / resolution,
+                        radius_cells, near_full)
+    # Clusters without such a cell nearby (a narrow space behind the frontier) and the
+    # unreachable segments' clusters get a view point with a line of sight instead.
+    if p.observe_range_m > 0.0:
+        missing = np.nonzero(goals[:, 0] < 0)[0]
+        look = np.concatenate([centroids[missing], f_centroids])
+        looked = view_goals(
+            pre.sub, trav, pre.unknown, filt.reachable,
+            look, p.observe_range_m / resolution, radius_cells, p.observe_rays, near_full)
+        goals[missing] = looked[: missing.size]
+        f_goals = looked[missing.size:]
+    else:
+        missing = np.zeros(0, np.int64)
+        f_goals = np.full((0, 2), -1, np.int64)
+    observe = np.zeros(size.size + f_size.size, bool)
+    observe[missing] = True
+    observe[size.size:] = True
+    centroids = np.concatenate([centroids, f_centroids])
+    size = np.concatenate([size, f_size])
+    goals = np.concatenate([goals, f_goals])
+    found = goals[:, 0] >= 0
+    found[found] = filt.reachable(goals[found, 0], goals[found, 1])
+    kept = np.nonzero(found)[0]
+    relabel = np.full(size.size, -1, np.int64)
+    relabel[kept] = np.arange(kept.size)
+    return Grouped(goals[kept], centroids[kept], size[kept], observe[kept], relabel[cluster])
+
+
 def find_frontiers(grid: np.ndarray, resolution: float, robot_rc: Tuple[int, int],
                    params: Optional[FrontierParams] = None) -> FrontierResult:
     """Run the three phases on a trinary grid; never raises on bad maps or robot poses."""
@@ -473,106 +618,42 @@ def find_frontiers(grid: np.ndarray, resolution: float, robot_rc: Tuple[int, int
     k = block_size(resolution, p.footprint_radius_m, p.path_resolution_m)
     tile = k * max(1, int(round(16 / k)))                 # multiple of k for mask_cells
 
-    # ---- phase 1: free cells next to unknown, then their 8-connected segments
     t0 = time.perf_counter()
     margin = p.neighbourhood_cells + int(math.ceil(radius_cells)) + 1
-    window = known_window(grid, margin)
-    if window is None:
+    pre = preliminary_generation(grid, p.neighbourhood_cells, margin, tile)
+    if pre is None:
         return FrontierResult(STATUS_EMPTY_MAP, timings_ms={"phase1": 0.0})
-    window = _aligned_window(grid.shape, window, tile)
-    r0, c0 = window[0], window[1]
-    sub = _window_view(grid, window)
-    p1, unknown = _phase1(sub, p.neighbourhood_cells)
-    p1_r, p1_c = mask_cells(p1, tile)
-    segment = label_cells(p1_r, p1_c)
     times["phase1"] = (time.perf_counter() - t0) * 1e3
-    result = FrontierResult(STATUS_OK, window=window, timings_ms=times)
-    result.phase1_rc = np.stack([p1_r + r0, p1_c + c0], axis=1).astype(np.int32)
+    r0, c0 = pre.window[0], pre.window[1]
+    result = FrontierResult(STATUS_OK, window=pre.window, timings_ms=times)
+    result.phase1_rc = np.stack([pre.rows + r0, pre.cols + c0], axis=1).astype(np.int32)
 
-    # ---- phase 2: size, clearance and reachability (path lengths come out of it)
     t0 = time.perf_counter()
-    trav = traversable_mask(sub, radius_cells)
-    snap = snap_to_mask(trav, rr - r0, rc - c0, int(math.ceil(p.robot_snap_radius_m / resolution)))
-    if snap is None:
-        times["phase2"] = (time.perf_counter() - t0) * 1e3
+    filt = filtering(pre, (rr - r0, rc - c0), resolution, p, k)
+    times["phase2"] = (time.perf_counter() - t0) * 1e3
+    if filt is None:
         result.status = STATUS_ROBOT_BLOCKED
         return result
-    result.robot_rc = (snap[0] + r0, snap[1] + c0)
-    graph = build_graph(trav, k)
-    dist = path_lengths(graph, graph.node(*snap), resolution)
-    result.traversable, result.graph, result.path_m = trav, graph, dist
-    seg_len_m = np.bincount(segment).astype(np.float64) * resolution
-    size_ok = seg_len_m[segment] >= p.min_frontier_size_m - 1e-9
-    keep = size_ok & (trav[p1_r, p1_c] > 0)
-    keep &= np.isfinite(dist[graph.nodes(p1_r, p1_c)])
-    p2_r, p2_c, seg = p1_r[keep], p1_c[keep], segment[keep]
-    # Segments without a single reachable cell (e.g. behind a gap too narrow for the
-    # footprint) are not candidates, but may be looked at from a reachable view point.
-    far = np.zeros(p1_r.size, bool)
-    if p.observe_range_m > 0.0 and p1_r.size:
-        seg_reached = np.bincount(segment, weights=keep.astype(np.float64)) > 0
-        far = size_ok & ~seg_reached[segment]
-    times["phase2"] = (time.perf_counter() - t0) * 1e3
-    result.phase2_rc = np.stack([p2_r + r0, p2_c + c0], axis=1).astype(np.int32)
-    result.unreachable_rc = np.stack([p1_r[far] + r0, p1_c[far] + c0], axis=1).astype(np.int32)
+    result.robot_rc = (filt.robot[0] + r0, filt.robot[1] + c0)
+    result.traversable, result.graph, result.path_m = filt.traversable, filt.graph, filt.path_m
+    keep, far = filt.keep, filt.far
+    result.phase2_rc = np.stack([pre.rows[keep] + r0, pre.cols[keep] + c0],
+                                axis=1).astype(np.int32)
+    result.unreachable_rc = np.stack([pre.rows[far] + r0, pre.cols[far] + c0],
+                                     axis=1).astype(np.int32)
 
-    # ---- phase 3: clusters along each segment, goal = cell nearest the cluster centroid
     t0 = time.perf_counter()
-    if p2_r.size == 0 and not far.any():
+    if not keep.any() and not far.any():
         times["phase3"] = (time.perf_counter() - t0) * 1e3
         result.status = STATUS_NO_FRONTIERS
         return result
-    cluster_len = p.cluster_size_m / resolution
-    cluster = np.zeros(0, np.int64)
-    centroids, size = np.zeros((0, 2)), np.zeros(0, np.int64)
-    f_centroids, f_size = np.zeros((0, 2)), np.zeros(0, np.int64)
-    if p2_r.size:
-        cluster, centroids, size = group_clusters(p2_r, p2_c, seg, cluster_len)
-    if far.any():
-        _, f_centroids, f_size = group_clusters(p1_r[far], p1_c[far], segment[far],
-                                                cluster_len)
-    # Unknown within the footprint radius: on small patches around each cluster, or once
-    # for the whole window when the patches would cover more than a twentieth of it.
-    near_full = None
-    patch_area = (size.size * (2 * (p.goal_search_radius_m / resolution + radius_cells)) ** 2
-                  + f_size.size * (2 * (p.observe_range_m / resolution + radius_cells)) ** 2)
-    if patch_area > 0.05 * sub.size:
-        near_full = dilate_disk(unknown, max(0.0, radius_cells - 1e-6))
-    # Goal: nearest cell to the centroid that is reachable and keeps the whole footprint in
-    # known space (>= footprint radius from unknown cells too: the unknown just behind a
-    # frontier may be a wall), searched within goal_search_radius_m.
-    goals = place_goals(trav, unknown, centroids, p.goal_search_radius_m / resolution,
-                        radius_cells, near_full)
-    # Clusters without such a cell nearby (a narrow space behind the frontier) and the
-    # unreachable segments' clusters get a view point with a line of sight instead.
-    if p.observe_range_m > 0.0:
-        missing = np.nonzero(goals[:, 0] < 0)[0]
-        look = np.concatenate([centroids[missing], f_centroids])
-        looked = view_goals(
-            sub, trav, unknown, lambda r, c: np.isfinite(dist[graph.nodes(r, c)]),
-            look, p.observe_range_m / resolution, radius_cells, p.observe_rays, near_full)
-        goals[missing] = looked[: missing.size]
-        f_goals = looked[missing.size:]
-    else:
-        missing = np.zeros(0, np.int64)
-        f_goals = np.full((0, 2), -1, np.int64)
-    observe = np.zeros(size.size + f_size.size, bool)
-    observe[missing] = True
-    observe[size.size:] = True
-    centroids = np.concatenate([centroids, f_centroids])
-    size = np.concatenate([size, f_size])
-    goals = np.concatenate([goals, f_goals])
-    found = goals[:, 0] >= 0
-    found[found] = np.isfinite(dist[graph.nodes(goals[found, 0], goals[found, 1])])
-    kept = np.nonzero(found)[0]
-    relabel = np.full(size.size, -1, np.int64)
-    relabel[kept] = np.arange(kept.size)
-    result.goals_rc = (goals[kept] + np.array([r0, c0])).astype(np.int32)
-    result.centroids_rc = centroids[kept] + np.array([r0, c0], dtype=np.float64)
-    result.cluster_cells = size[kept]
-    result.observe_only = observe[kept]
-    result.phase2_cluster = relabel[cluster]
-    if kept.size == 0:
+    groups = grouping(pre, filt, resolution, p)
+    result.goals_rc = (groups.goals + np.array([r0, c0])).astype(np.int32)
+    result.centroids_rc = groups.centroids + np.array([r0, c0], dtype=np.float64)
+    result.cluster_cells = groups.cluster_cells
+    result.observe_only = groups.observe_only
+    result.phase2_cluster = groups.phase2_cluster
+    if groups.goals.shape[0] == 0:
         result.status = STATUS_NO_FRONTIERS
     times["phase3"] = (time.perf_counter() - t0) * 1e3
     return result
