@@ -5,7 +5,8 @@ For each map side N (cells at 5 cm; default 1000 2000 3000 4000, i.e. 50 m .. 20
 draws a synthetic office building (rooms, corridors, furniture), makes it partially
 explored (known inside a disc of radius --explored x N/2 around a free cell near the
 centre, plus unknown unvisited rooms), then times
-  * this package's pipeline (frontiers.find_frontiers + scenario + utility, via planner.plan),
+  * this package's pipeline (frontiers.find_frontiers + scenario + utility, via
+    goal_selection.plan),
     best of --repeat runs, per phase;
   * bench/bfs_frontier.cpp compiled with `g++ -O2` into a temporary directory: an
     explore_lite-style BFS frontier search (BFS over free cells from the robot, frontier
@@ -26,7 +27,7 @@ import time
 import numpy as np
 
 from ascc_common.grid import GridInfo
-from frontier_detector.planner import PlannerParams, plan
+from frontier_detector.goal_selection import PlannerParams, plan
 from frontier_detector.synthetic import first_free_cell_near, office_building, partially_explored
 
 RESOLUTION = 0.05  # [m/cell]

@@ -23,7 +23,7 @@ import yaml
 from ascc_common.map_io import load_map
 from frontier_detector import offline
 from frontier_detector.frontiers import traversable_mask
-from frontier_detector.planner import PlannerParams
+from frontier_detector.goal_selection import PlannerParams
 from frontier_detector.report import (
     reachable_area,
     time_to_coverage,

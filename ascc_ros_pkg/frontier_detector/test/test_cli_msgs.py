@@ -11,7 +11,7 @@ from visualization_msgs.msg import Marker
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from frontier_detector import cli
-from frontier_detector.planner import plan
+from frontier_detector.goal_selection import plan
 from frontier_detector.rosmsg import grid_from_msg, plan_markers
 
 MAP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "maps", "office_partial.yaml")

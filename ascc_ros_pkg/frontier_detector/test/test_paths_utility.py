@@ -1,4 +1,4 @@
-"""Unit tests of path lengths, the utility terms, scenario detection and the planner."""
+"""Unit tests of path lengths, the utility terms, scenario detection and goal selection."""
 
 import math
 
@@ -7,8 +7,8 @@ import pytest
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from frontier_detector.frontiers import FrontierParams, traversable_mask
+from frontier_detector.goal_selection import STATUS_ALL_BLACKLISTED, PlannerParams, plan
 from frontier_detector.paths import block_size, build_graph, path_lengths
-from frontier_detector.planner import STATUS_ALL_BLACKLISTED, PlannerParams, plan
 from frontier_detector.scenario import CORRIDOR, ROOM, ScenarioParams, classify
 from frontier_detector.utility import (
     UtilityParams,

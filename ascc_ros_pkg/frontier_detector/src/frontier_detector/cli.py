@@ -20,7 +20,7 @@ from typing import List, Optional
 from ascc_common.map_io import load_map
 
 from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
-from .planner import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
+from .goal_selection import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
 
 PHASES = ("phase1", "phase2", "phase3", "utility")
 

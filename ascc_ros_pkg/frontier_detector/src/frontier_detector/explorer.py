@@ -31,7 +31,7 @@ from ascc_common.grid import GridInfo
 from ascc_common.params import nested, param
 
 from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
-from .planner import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
+from .goal_selection import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
 
 # Published statuses.
 IDLE = "idle"

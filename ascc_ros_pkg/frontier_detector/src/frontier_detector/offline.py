@@ -25,8 +25,8 @@ from ascc_common.grid import UNKNOWN, GridInfo
 
 from . import explorer as ex
 from .frontiers import traversable_mask
+from .goal_selection import Plan, PlannerParams
 from .paths import _DC, _DR, _MOVES
-from .planner import Plan, PlannerParams
 from .report import coverage, reachable_area, scan_truth
 
 

@@ -26,7 +26,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from ascc_common.grid import GridInfo, grid_from_msg_data, to_trinary
 from ascc_common.pose2d import quaternion_from_yaw
 
-from .planner import Plan
+from .goal_selection import Plan
 
 
 def grid_from_msg(msg: OccupancyGrid, free_max: int = 19, occupied_min: int = 65
