@@ -33,7 +33,8 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
+NAV = os.path.join(HERE, "..", "..", "ascc_navigation")   # the package measured
+sys.path.insert(0, os.path.join(NAV, "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.params import from_params, parameters  # noqa: E402
@@ -43,7 +44,7 @@ from ascc_navigation import synthetic as S  # noqa: E402
 from ascc_navigation.grid import map_agreement  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
 
-CONFIG = os.path.join(HERE, "..", "config", "gmapping.yaml")
+CONFIG = os.path.join(NAV, "config", "gmapping.yaml")
 SIM_WORLDS = os.path.join(HERE, "..", "..", "ascc_sim", "worlds")
 SCAN_PERIOD_S = 0.1
 FEED_EVERY = 2  # feed every 2nd scan (5 Hz): the node also skips scans when busy

@@ -37,7 +37,8 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
+NAV = os.path.join(HERE, "..", "..", "ascc_navigation")   # the package measured
+sys.path.insert(0, os.path.join(NAV, "src"))
 
 from bench_mapper import add_parameter_arguments, parameters_from_arguments  # noqa: E402
 

@@ -17,7 +17,7 @@ ground truth (`map_ok`: known cells of the map, placed by the start pose, that a
 truth; ascc_navigation.grid.map_agreement), and coverage is reported twice: `coverage`, the
 share of the truth's reachable cells that the SLAM map knows *at their true place* (map
 drift counts against it), and `seen`, the share the laser has reached from the robot's true
-poses (frontier_detector.report.SeenArea: the exploration alone). `--report-only`
+poses (ascc_eval.report.SeenArea: the exploration alone). `--report-only`
 back-fills `seen` of runs from before the monitor measured it from their run.bag.
 The simulator's real-time factor cap is per world unless `--rtf` is given (DEFAULT_RTF):
 4 for the office and the lab, 2 for the 100 m corridor loop, whose mapper and navigator need
@@ -25,7 +25,7 @@ more CPU than 2 cores give at 4 (the robot's nodes then starve: late odometry, l
 commands, see docs/results/frontier_detector.md). Long: an office run takes 2-4 minutes
 of wall time, a corridor run about 10.
 
-    python ascc_ros_pkg/frontier_detector/scripts/bench_exploration.py \
+    python ascc_ros_pkg/ascc_eval/scripts/bench_exploration.py \
         [--worlds office lab corridor] [--strategies utility nearest] [--seeds 0 1 2 3 4]
         [--rtf R] [--max-time-s 4000] [--out output/bench_exploration] [--report-only]
 """
@@ -97,7 +97,7 @@ def seen_from_bag(run_dir, clearance_m=0.18):
     import rosbag
 
     from ascc_common.pose2d import yaw_of
-    from frontier_detector.report import LaserGeometry, SeenArea, reachable_area
+    from ascc_eval.report import LaserGeometry, SeenArea, reachable_area
     from frontier_detector.rosmsg import grid_from_msg
 
     path = os.path.join(run_dir, "run.bag")
@@ -190,7 +190,7 @@ def summarise(results):
 
 def plot(results, out):
     """OUT/coverage_<world>.png: coverage vs simulated time, every run, colour = strategy."""
-    from frontier_detector.report import write_coverage_plot
+    from ascc_eval.report import write_coverage_plot
 
     colours = {"utility": "tab:blue", "nearest": "tab:orange"}
     for world in sorted({r["world"] for r in results}):

@@ -41,8 +41,8 @@ from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import String
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+from ascc_eval.report import scan_truth
 from frontier_detector.frontiers import traversable_mask
-from frontier_detector.report import scan_truth
 
 RES = 0.05
 START = (1.0, 1.0)          # [m] robot start in the map frame

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import GridInfo
-from frontier_detector import offline
-from frontier_detector.report import path_length
+from ascc_eval import offline
+from ascc_eval.report import path_length
 from frontier_detector.synthetic import first_free_cell_near, office_building
 
 RES = 0.05

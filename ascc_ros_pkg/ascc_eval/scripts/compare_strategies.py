@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Offline comparison of the `utility` and `nearest` strategies (frontier_detector.offline).
+"""Offline comparison of the `utility` and `nearest` strategies (ascc_eval.offline).
 
 Explores the simulator's building maps (ascc_sim/worlds/maps: office, lab, corridor loop;
 walls only, furniture objects are not in those maps) from several start poses per world
@@ -8,7 +8,7 @@ idealised robot/laser model of offline.py, and prints per world and strategy the
 length, the mean time to 90/95/99 % coverage of the reachable area, final coverage, goals
 and bad goals. With --out DIR it also writes map+path+goals PNGs and coverage-vs-time plots.
 
-    rosrun frontier_detector compare_strategies.py [--worlds office lab corridor]
+    rosrun ascc_eval compare_strategies.py [--worlds office lab corridor]
         [--seeds 5] [--out DIR]
 """
 
@@ -21,15 +21,15 @@ import numpy as np
 import yaml
 
 from ascc_common.map_io import load_map
-from frontier_detector import offline
-from frontier_detector.frontiers import traversable_mask
-from frontier_detector.goal_selection import PlannerParams
-from frontier_detector.report import (
+from ascc_eval import offline
+from ascc_eval.report import (
     reachable_area,
     time_to_coverage,
     write_coverage_plot,
     write_map_png,
 )
+from frontier_detector.frontiers import traversable_mask
+from frontier_detector.goal_selection import PlannerParams
 
 LEVELS = (0.90, 0.95, 0.99)
 

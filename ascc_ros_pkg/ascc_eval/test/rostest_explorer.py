@@ -39,9 +39,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import fake_world  # noqa: E402  (test helper next to this file)
 
 from ascc_common.map_io import load_map  # noqa: E402
+from ascc_eval.report import coverage  # noqa: E402
 from ascc_testing.rosout import RosoutWatcher  # noqa: E402
 from ascc_testing.waits import ConditionWaitMixin, wait_for  # noqa: E402
-from frontier_detector.report import coverage  # noqa: E402
 from frontier_detector.rosmsg import grid_from_msg  # noqa: E402
 
 NODE = "frontier_explorer"
@@ -254,4 +254,4 @@ class ExplorerTest(ConditionWaitMixin, unittest.TestCase):
 
 if __name__ == "__main__":
     rospy.init_node("rostest_explorer")
-    rostest.rosrun("frontier_detector", "explorer_fake_move_base", ExplorerTest)
+    rostest.rosrun("ascc_eval", "explorer_fake_move_base", ExplorerTest)

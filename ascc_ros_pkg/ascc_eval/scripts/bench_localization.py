@@ -22,7 +22,8 @@ import numpy as np
 import yaml
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
+NAV = os.path.join(HERE, "..", "..", "ascc_navigation")   # the package measured
+sys.path.insert(0, os.path.join(NAV, "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.params import from_params  # noqa: E402
@@ -97,7 +98,7 @@ def time_updates(params: mcl.MclParams, repeats: int = 30) -> None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--config", default=os.path.join(HERE, "..", "config", "amcl.yaml"),
+    ap.add_argument("--config", default=os.path.join(NAV, "config", "amcl.yaml"),
                     help="amcl parameter file (default: the package's config/amcl.yaml)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--odom-noise", type=float, default=0.03,

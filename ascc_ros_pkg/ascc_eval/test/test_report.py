@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
-from frontier_detector.report import (
+from ascc_eval.report import (
     ExplorationRecord,
     LaserGeometry,
     SeenArea,
@@ -133,7 +133,7 @@ def test_writers_make_png_files(tmp_path):
 
 
 def test_compose_and_exploration_record(tmp_path):
-    from frontier_detector.report import ExplorationRecord, compose
+    from ascc_eval.report import ExplorationRecord, compose
 
     t, info = two_rooms()
     # A map frame sitting at (1, 0.5) rotated by 90 deg inside the truth frame.

@@ -139,4 +139,4 @@ class BadInputTest(ConditionWaitMixin, unittest.TestCase):
 
 if __name__ == "__main__":
     rospy.init_node("rostest_bad_input")
-    rostest.rosrun("frontier_detector", "explorer_bad_input", BadInputTest)
+    rostest.rosrun("ascc_eval", "explorer_bad_input", BadInputTest)

@@ -36,8 +36,7 @@ from ascc_common import pose2d
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_common.map_io import save_map
 from ascc_common.pose2d import wrap_angle
-
-from .frontiers import disk_kernel, snap_to_mask, traversable_mask
+from frontier_detector.frontiers import disk_kernel, snap_to_mask, traversable_mask
 
 
 def reachable_area(truth: np.ndarray, info: GridInfo, start_xy: Tuple[float, float],

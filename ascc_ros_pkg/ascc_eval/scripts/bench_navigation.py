@@ -29,7 +29,8 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "src"))
+NAV = os.path.join(HERE, "..", "..", "ascc_navigation")   # the package measured
+sys.path.insert(0, os.path.join(NAV, "src"))
 
 from ascc_common.grid import OCCUPIED, GridInfo  # noqa: E402
 from ascc_common.params import from_params, tree_getter  # noqa: E402
@@ -113,7 +114,7 @@ class Sim:
 
 
 def load_params():
-    with open(os.path.join(HERE, "..", "config", "move_base.yaml")) as f:
+    with open(os.path.join(NAV, "config", "move_base.yaml")) as f:
         p = from_params(nav.MoveBaseParams, tree_getter(yaml.safe_load(f)))
     return p.planner, p.controller, p.nav
 

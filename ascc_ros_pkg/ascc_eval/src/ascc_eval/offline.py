@@ -22,11 +22,11 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from ascc_common.grid import UNKNOWN, GridInfo
+from frontier_detector import explorer as ex
+from frontier_detector.frontiers import traversable_mask
+from frontier_detector.goal_selection import Plan, PlannerParams
+from frontier_detector.paths import _DC, _DR, _MOVES
 
-from . import explorer as ex
-from .frontiers import traversable_mask
-from .goal_selection import Plan, PlannerParams
-from .paths import _DC, _DR, _MOVES
 from .report import coverage, reachable_area, scan_truth
 
 

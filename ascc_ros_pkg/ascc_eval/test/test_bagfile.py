@@ -3,7 +3,7 @@ import struct
 
 from rosbags.rosbag1 import Reader
 
-from frontier_detector.bagfile import BagRecorder
+from ascc_eval.bagfile import BagRecorder
 
 FLOAT64_DEF = "float64 data\n"
 FLOAT64_MD5 = "fdb28210bfa9d7c91146260178d9a584"  # std_msgs/Float64

@@ -77,4 +77,4 @@ class ExploreSimTest(unittest.TestCase):
 
 if __name__ == "__main__":
     rospy.init_node("rostest_explore_sim")
-    rostest.rosrun("frontier_detector", "explore_office_sim", ExploreSimTest)
+    rostest.rosrun("ascc_eval", "explore_office_sim", ExploreSimTest)

@@ -13,7 +13,7 @@ centre, plus unknown unvisited rooms), then times
     cells, BFS grouping), best of --repeat runs, file I/O excluded.
 Prints one line per size and the ratio. Needs g++ on the PATH.
 
-    rosrun frontier_detector bench_frontiers.py [--sizes 1000 4000] [--repeat 5]
+    rosrun ascc_eval bench_frontiers.py [--sizes 1000 4000] [--repeat 5]
 """
 
 import argparse
@@ -39,7 +39,7 @@ def _cpp_source() -> str:
     try:
         import rospkg
 
-        candidates.append(os.path.join(rospkg.RosPack().get_path("frontier_detector"),
+        candidates.append(os.path.join(rospkg.RosPack().get_path("ascc_eval"),
                                        "bench", "bfs_frontier.cpp"))
     except Exception:  # noqa: BLE001 - rospkg missing or package not found: try the others
         pass
