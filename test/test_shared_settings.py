@@ -37,7 +37,7 @@ def test_cmd_timeout_defaults_agree():
                  "ascc_ros_pkg/ascc_sim/launch/sim.launch",
                  "ascc_ros_pkg/ascc_navigation/launch/move_base.launch",
                  "ascc_ros_pkg/ascc_navigation/test/navigation_office.test",
-                 "ascc_ros_pkg/frontier_detector/test/explore_office_sim.test"):
+                 "ascc_ros_pkg/ascc_eval/test/explore_office_sim.test"):
         assert _arg_default(path, "cmd_timeout_s") == driver, path
 
 
