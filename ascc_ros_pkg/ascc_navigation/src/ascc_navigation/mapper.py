@@ -1,8 +1,8 @@
 """The gmapping-compatible mapper without ROS: decides when to update the particle filter,
 guards against bad input, and computes what slam_gmapping publishes (map, entropy, map->odom).
 
-The ROS node (``nodes/slam_mapper``) only looks up TF, converts messages and calls
-``SlamMapper.handle_scan`` with plain numbers. Parameters keep gmapping's names: the node
+The ROS node (``ascc_navigation.ros.slam_mapper_node``) only looks up TF, converts messages
+and calls ``SlamMapper.handle_scan`` with plain numbers. Parameters keep gmapping's names: the node
 reads ``MapperConfig`` with ``ascc_common.params.from_params`` (names, defaults, units and
 bounds are in its fields and ``RbpfConfig``'s).
 """

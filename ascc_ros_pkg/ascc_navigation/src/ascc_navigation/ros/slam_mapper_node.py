@@ -1,0 +1,209 @@
+"""slam_gmapping stand-in (run it as node name ``slam_gmapping``).
+
+Subscribes ``scan`` (sensor_msgs/LaserScan) and reads odometry from TF (odom -> base_link and
+base_link -> laser at the scan's stamp). Publishes ``map`` (latched nav_msgs/OccupancyGrid,
+-1/0/100), ``map_metadata`` (latched), ``~entropy`` (std_msgs/Float64), TF map -> odom, and
+serves ``dynamic_map`` (nav_msgs/GetMap). Parameters: gmapping's names (see
+``ascc_navigation.mapper.MapperConfig`` and the package README). The scan callback only stores
+the newest scan; a timer runs the filter, another one broadcasts map -> odom.
+"""
+
+import re
+import threading
+import time
+from collections import deque
+
+import rospy
+import tf2_ros
+from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import MapMetaData, OccupancyGrid
+from nav_msgs.srv import GetMap, GetMapResponse
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Float64
+
+from ascc_common.grid import grid_to_msg_data
+from ascc_common.params import from_params
+from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
+from ascc_navigation import mapper as M
+from ascc_navigation.laser import LaserMount
+
+WARN_PERIOD_S = 5.0  # each kind of warning at most once per this period (wall clock)
+SCAN_BUFFER = 3  # newest scans kept: the newest whose TF has arrived is processed
+WAIT = "wait"  # lookup_poses: TF not there yet
+DROP = "drop"  # lookup_poses: scan unusable (warned)
+
+
+class SlamMapperNode:
+    def __init__(self):
+        self.mapper = M.SlamMapper(from_params(M.MapperConfig, rospy.get_param, "~"),
+                                   seed=rospy.get_param("~seed", None))
+        self.base_frame = rospy.get_param("~base_frame", "base_link")
+        self.odom_frame = rospy.get_param("~odom_frame", "odom")
+        self.map_frame = rospy.get_param("~map_frame", "map")
+        self.map_update_interval = rospy.Duration(rospy.get_param("~map_update_interval", 5.0))
+        tf_period = rospy.get_param("~transform_publish_period", 0.05)
+        self.last_tf_stamp = None
+        self.tf_delay = rospy.Duration(rospy.get_param("~tf_delay", tf_period))
+        self.tf_wait = rospy.Duration(rospy.get_param("~tf_wait_s", 0.5))
+        self.lock = threading.Lock()
+        self.scans = deque(maxlen=SCAN_BUFFER)  # newest unprocessed scans, oldest first
+        self.map_msg = None          # last published map (for dynamic_map)
+        self.map_dirty = False
+        self.last_map_time = None
+        self.map_to_odom = (0.0, 0.0, 0.0)
+        self.warned = {}             # warning kind -> wall time it was last logged
+
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(30.0))
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.tf_broadcaster = tf2_ros.TransformBroadcaster()
+        self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
+        self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
+        self.entropy_pub = rospy.Publisher("~entropy", Float64, queue_size=5)
+        self.service = rospy.Service("dynamic_map", GetMap, self.on_get_map)
+        rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
+        self.timers = [
+            rospy.Timer(rospy.Duration(rospy.get_param("~process_period_s", 0.05)),
+                        self.on_process, reset=True),
+        ]
+        if tf_period > 0.0:
+            self.timers.append(rospy.Timer(rospy.Duration(tf_period), self.on_publish_tf,
+                                           reset=True))
+
+    # -- callbacks -------------------------------------------------------------------
+    def on_scan(self, msg):
+        with self.lock:
+            self.scans.append(msg)
+
+    def on_get_map(self, _req):
+        with self.lock:
+            msg = self.map_msg
+        if msg is None:
+            raise rospy.ServiceException("no map yet: no scan has been processed")
+        return GetMapResponse(map=msg)
+
+    def on_publish_tf(self, _event):
+        stamp = rospy.Time.now() + self.tf_delay
+        if stamp == self.last_tf_stamp:
+            # A timer catching up (process behind /clock) fires at the same time: one
+            # transform per stamp, or tf2 warns TF_REPEATED_DATA.
+            return
+        self.last_tf_stamp = stamp
+        x, y, yaw = self.map_to_odom
+        t = TransformStamped()
+        t.header.stamp = stamp
+        t.header.frame_id = self.map_frame
+        t.child_frame_id = self.odom_frame
+        t.transform.translation.x = x
+        t.transform.translation.y = y
+        (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+         t.transform.rotation.w) = quaternion_from_yaw(yaw)
+        self.tf_broadcaster.sendTransform(t)
+
+    def on_process(self, _event):
+        with self.lock:
+            waiting = list(self.scans)
+        chosen = None
+        for scan in reversed(waiting):  # newest first
+            poses = self.lookup_poses(scan)
+            if poses is WAIT:
+                continue
+            with self.lock:  # this scan and every one that arrived before it are done
+                if any(s is scan for s in self.scans):
+                    while self.scans.popleft() is not scan:
+                        pass
+            if poses is not DROP:
+                chosen = scan
+            break
+        if chosen is None:
+            return
+        scan = chosen
+        odom_pose, mount = poses
+        out = self.mapper.handle_scan(
+            M.ScanInput(scan.header.stamp.to_sec(), scan.ranges, scan.angle_min,
+                        scan.angle_increment, scan.range_min, scan.range_max),
+            odom_pose, mount)
+        if out.reason and out.status in (M.REJECTED, M.RESET):
+            self.warn("slam_mapper: %s" % out.reason)
+        if out.status == M.RESET:
+            self.last_map_time = None
+        if out.stats is not None:
+            self.entropy_pub.publish(Float64(out.stats.entropy))
+        self.map_to_odom = tuple(float(v) for v in self.mapper.map_to_odom())
+        self.map_dirty = self.map_dirty or out.map_changed
+        now = rospy.Time.now()
+        if self.last_map_time is not None and now < self.last_map_time:
+            self.last_map_time = None  # time jumped back
+        if self.map_dirty and (self.last_map_time is None
+                               or now - self.last_map_time >= self.map_update_interval):
+            self.publish_map(now)
+
+    # -- helpers ---------------------------------------------------------------------
+    def warn(self, text):
+        """Log a warning, each kind (the text without its numbers) once per WARN_PERIOD_S."""
+        kind = re.sub(r"[-+]?\d[\d.e+-]*", "#", text)
+        now = time.monotonic()
+        if now - self.warned.get(kind, -WARN_PERIOD_S) >= WARN_PERIOD_S:
+            self.warned[kind] = now
+            rospy.logwarn(text)
+
+    def lookup_poses(self, scan):
+        """(odom pose of the base, laser mount) at the scan's stamp; WAIT if its TF has not
+        arrived yet, DROP (warned) if it cannot be used."""
+        frame = scan.header.frame_id
+        if not frame:
+            self.warn("slam_mapper: scan without frame_id dropped")
+            return DROP
+        try:
+            odom = self.tf_buffer.lookup_transform(self.odom_frame, self.base_frame,
+                                                   scan.header.stamp)
+            laser = self.tf_buffer.lookup_transform(self.base_frame, frame, scan.header.stamp)
+        except tf2_ros.ExtrapolationException as err:
+            if rospy.Time.now() - scan.header.stamp < self.tf_wait:
+                return WAIT  # TF for this stamp has not arrived yet: retry on the next tick
+            self.warn("slam_mapper: no TF at the scan's stamp, scan dropped: %s" % err)
+            return DROP
+        except tf2_ros.TransformException as err:
+            self.warn("slam_mapper: scan in frame '%s' dropped: no TF %s -> %s / %s -> '%s' "
+                      "(%s)" % (frame, self.odom_frame, self.base_frame, self.base_frame,
+                                frame, err))
+            return DROP
+        tr, q = laser.transform.translation, laser.transform.rotation
+        try:
+            mount = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z, q.w)
+        except ValueError as err:
+            self.warn("slam_mapper: scan in frame '%s' dropped: %s" % (frame, err))
+            return DROP
+        tr, q = odom.transform.translation, odom.transform.rotation
+        return (tr.x, tr.y, yaw_from_quaternion(q.x, q.y, q.z, q.w)), mount
+
+    def publish_map(self, now):
+        grid, info = self.mapper.occupancy()
+        meta = MapMetaData()
+        meta.map_load_time = now
+        meta.resolution = info.resolution
+        meta.width = info.width
+        meta.height = info.height
+        meta.origin.position.x = info.origin_x
+        meta.origin.position.y = info.origin_y
+        meta.origin.orientation.w = 1.0
+        msg = OccupancyGrid()
+        msg.header.stamp = now
+        msg.header.frame_id = self.map_frame
+        msg.info = meta
+        msg.data = grid_to_msg_data(grid)
+        self.map_pub.publish(msg)
+        self.meta_pub.publish(meta)
+        with self.lock:
+            self.map_msg = msg
+        self.map_dirty = False
+        self.last_map_time = now
+
+
+def main():
+    rospy.init_node("slam_gmapping")
+    try:
+        SlamMapperNode()
+    except ValueError as err:  # a parameter with a wrong type or range
+        rospy.logfatal("slam_mapper: %s" % err)
+        raise SystemExit(1) from err
+    rospy.spin()
