@@ -2,4 +2,5 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["ascc_eval"], package_dir={"": "src"}))
+setup(**generate_distutils_setup(packages=["ascc_eval", "ascc_eval.ros"],
+                                 package_dir={"": "src"}))
