@@ -2,7 +2,8 @@
 
 Every parameter a dataclass declares must be in its table, with the dataclass's default in
 the "default" column (cells list several names and defaults in the same order, separated
-by " / ", ";" or ","). Defaults written as formulas ("π/6",
+by " / ", ";" or ","; one default in a cell of several names is theirs, e.g. a launch
+argument and its node parameter; a leading "~" is dropped). Defaults written as formulas ("π/6",
 "range_max − 0.01", "random") are not compared. Names the dataclass does not declare (the
 nodes' own settings read inline) are skipped.
 """
@@ -17,6 +18,8 @@ from ascc_navigation.mapper import MapperConfig
 from ascc_navigation.mcl import MclParams
 from ascc_navigation.navigation import MoveBaseParams
 from frontier_detector.explorer import ExplorerNodeParams
+from irobot_create_2_1.driver_core import DriverParams
+from irobot_create_2_1.virtual_create import VirtualCreateParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -24,6 +27,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TABLES = {
     "ascc_ros_pkg/ascc_navigation/README.md": [MapperConfig, MclParams, MoveBaseParams],
     "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
+    "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams],
 }
 
 
@@ -32,7 +36,7 @@ def _tables(text):
     out, lines = [], text.splitlines()
     for i, line in enumerate(lines):
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if line.startswith("|") and "default" in cells and "parameter" in cells[0]:
+        if line.startswith("|") and "default" in cells and "param" in cells[0]:
             rows = []
             for row in lines[i + 2:]:
                 if not row.startswith("|"):
@@ -44,9 +48,11 @@ def _tables(text):
 
 def _names(cell, known):
     """The cell's parameter names resolved against ``known`` (None where unknown); a name
-    with a '/' (or a bare prefix ending in '/') sets the prefix of the names after it."""
+    with a '/' (or a bare prefix ending in '/') sets the prefix of the names after it. A
+    leading '~' (private name) is dropped."""
     names, prefix = [], ""
     for token in re.findall(r"`([^`]+)`", cell):
+        token = token[1:] if token.startswith("~") else token
         if token.endswith("/"):
             prefix = token
             continue
@@ -85,6 +91,8 @@ def test_readme_defaults_match_the_dataclass(cls, header, rows):
     for row in rows:
         names = _names(row[0], known)
         values = re.split(r"\s+/\s+|;\s*|,\s*", row[column])
+        if len(values) == 1:
+            values = values * len(names)  # one default for every name of the cell
         if len(values) != len(names):
             values = row[column].split()
         if not any(names):

@@ -2,7 +2,10 @@
 commands with a watchdog, saturation and bump safety. The node feeds it bytes and times
 (ROS time, so simulated time works) and writes the bytes it returns to the port."""
 import math
+from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
+
+from ascc_common.params import param
 
 from . import kinematics, protocol
 from .odometry import Odometry
@@ -73,6 +76,27 @@ class Throttle:
             self._last[key] = now
             return True
         return False
+
+
+@dataclass
+class DriverParams:
+    """Everything the driver node reads (private parameters)."""
+
+    port: str = param("/dev/ttyUSB0", "serial device (or a virtual Create's pty)")
+    baud: int = param(57600, "[baud] OI baud rate")
+    mode: str = param("safe", "safe or full (full disables the cliff/wheel-drop stop)",
+                      choices=("safe", "full"))
+    cmd_timeout_s: float = param(0.5, "[s] no command for this long -> wheels stopped",
+                                 gt=0.0)
+    cmd_rate_hz: float = param(20.0, "[Hz] wheel commands are (re)sent at this rate")
+    publish_rate_hz: float = param(30.0, "[Hz] cap on odom/TF/sensorPacket/hazards")
+    sensor_timeout_s: float = param(1.0, "[s] no stream frame for this long -> restart it")
+    wheel_base_m: float = param(0.258, "[m] wheel separation for twist -> wheel speeds")
+    max_wheel_speed_m_s: float = param(0.5, "[m/s] per-wheel limit")
+    stop_on_bump: bool = param(True, "a pressed bumper removes forward motion")
+    publish_tf: bool = param(True, "broadcast odom_frame -> base_frame")
+    odom_frame: str = param("odom", "odometry frame")
+    base_frame: str = param("base_link", "robot frame")
 
 
 class CreateDriverCore:

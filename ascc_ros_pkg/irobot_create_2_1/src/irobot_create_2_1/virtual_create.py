@@ -24,8 +24,10 @@ in the three modules' docstrings; see also the package README):
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
+from ascc_common.params import param
 from irobot_create_2_1 import oi_commands, protocol
 from irobot_create_2_1.create_state import EPS, CreateState
 from irobot_create_2_1.oi_sensors import SensorEncoder
@@ -34,6 +36,24 @@ STREAM_PERIOD_S = protocol.STREAM_PERIOD_S      # the Create streams every 15 ms
 RX_BUFFER_LIMIT = 4096           # bytes held while a wait command blocks the input [bytes]
 TX_BUFFER_LIMIT = 65536          # robot->host bytes kept when nobody reads [bytes]
 MAX_COMMANDS_PER_CALL = 1024     # bounds work per feed/step (a looping script never hangs)
+
+
+@dataclass
+class VirtualCreateParams:
+    """Everything the virtual_create node reads (private parameters)."""
+
+    link_path: str = param("", "symlink to the pty (\"\": none, the /dev/pts/N path is "
+                               "printed)")
+    rate_hz: float = param(200.0, "[Hz] emulation step rate, ROS time", gt=0.0)
+    publish_rate_hz: float = param(50.0, "[Hz] rate of ~ground_truth / ~wheel_speeds",
+                                   gt=0.0)
+    reopen_delay_s: float = param(1.0, "[s] ~close_link: time before the pty comes back",
+                                  ge=0.0)
+    wheel_base_m: float = param(0.258, "[m] wheel base")
+    battery_capacity_mah: float = param(2700.0, "[mAh] battery capacity (starts full)")
+    max_wheel_speed_mm_s: float = param(500.0, "[mm/s] per-wheel clamp")
+    world_frame: str = param("virtual_world", "frame of ~ground_truth")
+    base_frame: str = param("base_link", "child frame of ~ground_truth")
 
 
 class _Wait:

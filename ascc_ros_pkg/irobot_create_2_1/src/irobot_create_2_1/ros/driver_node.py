@@ -4,6 +4,7 @@ Interface-compatible with Brown University's irobot_create_2_1: publishes `senso
 `odom` (+ TF odom->base_link), subscribes `cmd_vel`, serves tank/turn/circle/brake/leds/
 demo/dock/song. Adds `battery`, `hazards` and `/diagnostics`. The protocol, odometry and
 safety logic live in irobot_create_2_1.driver_core; this file only wires ROS to it.
+Parameters: ``irobot_create_2_1.driver_core.DriverParams``.
 """
 import math
 import threading
@@ -17,9 +18,10 @@ from geometry_msgs.msg import Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
+from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
 from irobot_create_2_1 import protocol, sensor_state
-from irobot_create_2_1.driver_core import CreateDriverCore, Throttle
+from irobot_create_2_1.driver_core import CreateDriverCore, DriverParams, Throttle
 from irobot_create_2_1.link import SerialLink
 from irobot_create_2_1.msg import Hazards, SensorPacket
 from irobot_create_2_1.odometry import twist_covariance
@@ -47,23 +49,18 @@ WARN_PERIOD_S = 5.0
 
 class CreateDriverNode:
     def __init__(self):
-        self.port = rospy.get_param("~port", "/dev/ttyUSB0")
-        baud = int(rospy.get_param("~baud", 57600))
-        self.odom_frame = rospy.get_param("~odom_frame", "odom")
-        self.base_frame = rospy.get_param("~base_frame", "base_link")
-        self.publish_tf = bool(rospy.get_param("~publish_tf", True))
-        self.sensor_timeout_s = float(rospy.get_param("~sensor_timeout_s", 1.0))
-        publish_rate_hz = float(rospy.get_param("~publish_rate_hz", 30.0))
-        cmd_rate_hz = float(rospy.get_param("~cmd_rate_hz", 20.0))
+        p = from_params(DriverParams, rospy.get_param, "~")
+        self.port = p.port
+        self.odom_frame = p.odom_frame
+        self.base_frame = p.base_frame
+        self.publish_tf = p.publish_tf
+        self.sensor_timeout_s = p.sensor_timeout_s
         self.core = CreateDriverCore(
-            wheel_base_m=float(rospy.get_param("~wheel_base_m", 0.258)),
-            mode=rospy.get_param("~mode", "safe"),
-            cmd_timeout_s=float(rospy.get_param("~cmd_timeout_s", 0.5)),
-            stop_on_bump=bool(rospy.get_param("~stop_on_bump", True)),
-            max_wheel_speed_m_s=float(rospy.get_param("~max_wheel_speed_m_s", 0.5)))
-        self.link = SerialLink(self.port, baud)
+            wheel_base_m=p.wheel_base_m, mode=p.mode, cmd_timeout_s=p.cmd_timeout_s,
+            stop_on_bump=p.stop_on_bump, max_wheel_speed_m_s=p.max_wheel_speed_m_s)
+        self.link = SerialLink(self.port, p.baud)
         self.lock = threading.Lock()
-        self.publish_period = rospy.Duration(1.0 / max(publish_rate_hz, 1e-3))
+        self.publish_period = rospy.Duration(1.0 / max(p.publish_rate_hz, 1e-3))
         self.last_publish = None
         self.last_pose = None  # (time, x, y, theta) of the last odom message
         self.last_init = -math.inf
@@ -88,7 +85,7 @@ class CreateDriverNode:
         rospy.on_shutdown(self.shutdown)
         self.reader = threading.Thread(target=self.read_loop, name="create_reader", daemon=True)
         self.reader.start()
-        rospy.Timer(rospy.Duration(1.0 / cmd_rate_hz), self.on_cmd_timer)
+        rospy.Timer(rospy.Duration(1.0 / p.cmd_rate_hz), self.on_cmd_timer)
         rospy.Timer(rospy.Duration(1.0), self.on_slow_timer)
         rospy.loginfo("create driver: port %s, mode %s, cmd_timeout_s %.2f",
                       self.port, self.core.mode, self.core.cmd_timeout_s)

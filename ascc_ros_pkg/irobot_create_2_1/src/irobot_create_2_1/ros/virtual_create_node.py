@@ -2,7 +2,8 @@
 
 Prints `virtual_create: serving <path>` on stdout (and logs it, and sets ~port) so a test or
 a person can point the driver at it. The emulation (irobot_create_2_1.virtual_create) steps
-on a ROS-time timer, so it follows /clock; this file only wires params, topics, services.
+on a ROS-time timer, so it follows /clock; this file only wires params
+(``irobot_create_2_1.virtual_create.VirtualCreateParams``), topics, services.
 """
 import json
 import math
@@ -15,8 +16,9 @@ from geometry_msgs.msg import Quaternion, Vector3Stamped
 from nav_msgs.msg import Odometry
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
+from ascc_common.params import from_params
 from irobot_create_2_1.pty_link import PtyLink
-from irobot_create_2_1.virtual_create import VirtualCreate
+from irobot_create_2_1.virtual_create import VirtualCreate, VirtualCreateParams
 
 WARN_PERIOD_S = 5.0
 MAX_STEP_S = 0.5          # a longer gap (paused sim, suspended process) is not emulated
@@ -25,20 +27,15 @@ GARBAGE_BYTES = 64
 
 class VirtualCreateNode:
     def __init__(self):
-        link_path = rospy.get_param("~link_path", "") or None
-        rate_hz = float(rospy.get_param("~rate_hz", 200.0))
-        publish_rate_hz = float(rospy.get_param("~publish_rate_hz", 50.0))
-        self.reopen_delay_s = float(rospy.get_param("~reopen_delay_s", 1.0))
-        self.world_frame = rospy.get_param("~world_frame", "virtual_world")
-        self.base_frame = rospy.get_param("~base_frame", "base_link")
-        if rate_hz <= 0 or publish_rate_hz <= 0 or self.reopen_delay_s < 0:
-            raise ValueError("~rate_hz and ~publish_rate_hz must be > 0, ~reopen_delay_s >= 0")
-        self.create = VirtualCreate(
-            wheel_base_m=float(rospy.get_param("~wheel_base_m", 0.258)),
-            battery_capacity_mah=float(rospy.get_param("~battery_capacity_mah", 2700.0)),
-            max_wheel_speed_mm_s=float(rospy.get_param("~max_wheel_speed_mm_s", 500.0)))
+        p = from_params(VirtualCreateParams, rospy.get_param, "~")
+        self.reopen_delay_s = p.reopen_delay_s
+        self.world_frame = p.world_frame
+        self.base_frame = p.base_frame
+        self.create = VirtualCreate(wheel_base_m=p.wheel_base_m,
+                                    battery_capacity_mah=p.battery_capacity_mah,
+                                    max_wheel_speed_mm_s=p.max_wheel_speed_mm_s)
         self.lock = threading.Lock()
-        self.link = PtyLink(self.create, link_path)
+        self.link = PtyLink(self.create, p.link_path or None)
         self.last_step = None
         self.announce()
 
@@ -50,8 +47,8 @@ class VirtualCreateNode:
         rospy.Service("~power_cycle", Trigger, self.srv_power_cycle)
         rospy.Service("~state", Trigger, self.srv_state)
         rospy.on_shutdown(self.shutdown)
-        self.timers = [rospy.Timer(rospy.Duration(1.0 / rate_hz), self.on_step),
-                       rospy.Timer(rospy.Duration(1.0 / publish_rate_hz), self.on_publish)]
+        self.timers = [rospy.Timer(rospy.Duration(1.0 / p.rate_hz), self.on_step),
+                       rospy.Timer(rospy.Duration(1.0 / p.publish_rate_hz), self.on_publish)]
 
     def announce(self):
         port = self.link.port
