@@ -1,5 +1,6 @@
 """ascc_common.params: reading parameter dataclasses from a getter."""
 from dataclasses import dataclass
+from typing import Optional
 
 import pytest
 
@@ -75,3 +76,33 @@ def test_tree_getter_walks_slashes():
     get = tree_getter({"a": {"b": 1}, "c": 2})
     assert get("a/b", 0) == 1 and get("c", 0) == 2
     assert get("a/x", 5) == 5 and get("c/d", 5) == 5
+
+
+@dataclass
+class _Unset:
+    seed: Optional[int] = param(None, "seed (unset: random)", ge=0)
+    period_s: "Optional[float]" = param(None, "[s] period (unset: another one)", gt=0.0)
+
+
+def test_optional_parameters_stay_unset_unless_given():
+    assert from_params(_Unset, {}.get) == _Unset(None, None)
+    out = from_params(_Unset, {"seed": 3.0, "period_s": "0.5"}.get)
+    assert out.seed == 3 and isinstance(out.seed, int) and out.period_s == 0.5
+    with pytest.raises(ParamError, match="parameter period_s: must be > 0.0"):
+        from_params(_Unset, {"period_s": 0}.get)
+    with pytest.raises(ParamError, match="parameter seed: expected int"):
+        from_params(_Unset, {"seed": "x"}.get)
+
+
+def test_none_default_needs_an_optional_type_and_optional_needs_none():
+    @dataclass
+    class NoneDefault:
+        seed: int = param(None, "seed")
+
+    @dataclass
+    class OptionalWithDefault:
+        seed: Optional[int] = param(3, "seed")
+
+    for cls in (NoneDefault, OptionalWithDefault):
+        with pytest.raises(TypeError, match="Optional"):
+            from_params(cls, {}.get)

@@ -10,14 +10,17 @@ Plain fields are not parameters (tuning constants the nodes do not read).
 ``from_params(cls, get, prefix)`` reads every parameter through ``get(name, default)``:
 ``rospy.get_param`` with prefix ``"~"`` in a node, ``dict.get`` or ``tree_getter(yaml)`` in
 tests and benchmarks. Values are converted to the field's type (int, float, bool, str) and
-checked; a bad one raises ``ParamError`` naming the parameter and the value. Then the
+checked; a bad one raises ``ParamError`` naming the parameter and the value. A field typed
+``Optional[...]`` with default None stays None unless given ("unset by default"). Then the
 dataclass's own ``validate()`` (rules across fields), if it has one, runs.
 ``parameters(cls)`` lists (name, default, doc) for documentation and README checks.
 """
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, List, NamedTuple, Optional, Sequence
+import re
+import typing
+from typing import Any, Callable, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 Getter = Callable[[str, Any], Any]
 
@@ -74,8 +77,11 @@ def from_params(cls: type, get: Getter, prefix: str = "") -> Any:
         elif _PARAM in f.metadata:
             spec = f.metadata[_PARAM]
             full = prefix + (spec.name or f.name)
-            value = _convert(full, _field_type(cls, f), get(full, f.default))
-            _check(full, spec, value)
+            kind, optional = _field_type(cls, f)
+            value = get(full, f.default)
+            if not (optional and value is None):
+                value = _convert(full, kind, value)
+                _check(full, spec, value)
             values[f.name] = value
     obj = cls(**values)
     validate = getattr(obj, "validate", None)
@@ -112,12 +118,21 @@ def tree_getter(tree: dict) -> Getter:
     return get
 
 
-def _field_type(cls: type, f: dataclasses.Field) -> type:
-    kind = _TYPES.get(f.type, f.type) if isinstance(f.type, str) else f.type
-    if kind not in _TYPES.values():
-        raise TypeError("%s.%s: a parameter must be int, float, bool or str, not %r"
-                        % (cls.__name__, f.name, f.type))
-    return kind
+def _field_type(cls: type, f: dataclasses.Field) -> Tuple[type, bool]:
+    """The field's type and whether it is Optional (then its default must be None)."""
+    kind: Any = f.type
+    optional = False
+    if isinstance(kind, str):
+        match = re.fullmatch(r"Optional\[(\w+)\]", kind)
+        optional = match is not None
+        kind = _TYPES.get(match.group(1) if match else kind, kind)
+    elif typing.get_origin(kind) is Union and type(None) in typing.get_args(kind):
+        args = [a for a in typing.get_args(kind) if a is not type(None)]
+        optional, kind = True, args[0] if len(args) == 1 else kind
+    if kind not in _TYPES.values() or optional != (f.default is None):
+        raise TypeError("%s.%s: a parameter must be int, float, bool or str (or Optional of "
+                        "one, default None), not %r" % (cls.__name__, f.name, f.type))
+    return kind, optional
 
 
 def _convert(name: str, kind: type, value: Any) -> Any:
