@@ -17,6 +17,7 @@ from ascc_common.params import parameters
 from ascc_navigation.mapper import MapperConfig
 from ascc_navigation.mcl import MclParams
 from ascc_navigation.navigation import MoveBaseParams
+from ascc_sim.runner import SimulatorParams
 from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
@@ -27,6 +28,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TABLES = {
     "ascc_ros_pkg/ascc_navigation/README.md": [MapperConfig, MclParams, MoveBaseParams],
     "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
+    "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams],
 }
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import OCCUPIED, GridInfo
+from ascc_common.params import ParamError, from_params
 from ascc_sim.grid import GridMap
-from ascc_sim.runner import SimRunner
+from ascc_sim.runner import SimRunner, SimulatorParams
 from ascc_sim.sim import RobotModel, Simulation, integrate_arc, select_robots
 from ascc_sim.world import PersonSpec, Pose2D, RobotSpec, Waypoint, World
 from irobot_create_2_1 import protocol
@@ -262,3 +263,13 @@ def test_runner_unpaced_and_catch_up():
     wall[0] += 5.0
     runner2.step()
     assert runner2.catch_up_resets == 1
+
+
+def test_simulator_params_clock_period_follows_the_physics_step_unless_set():
+    p = from_params(SimulatorParams, {"physics_dt_s": 0.02}.get, "")
+    assert p.world is None and p.link_dir is None and p.clock_period() == 0.02
+    p = from_params(SimulatorParams, {"physics_dt_s": 0.02, "clock_period_s": 0.05}.get)
+    assert p.clock_period() == 0.05
+    for bad in ({"physics_dt_s": 0}, {"clock_period_s": 0}, {"marker_rate_hz": -1}):
+        with pytest.raises(ParamError, match="must be > 0"):
+            from_params(SimulatorParams, bad.get)

@@ -7,11 +7,46 @@ sleep are injectable, so the loop is tested without a master or real time passin
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional
+
+from ascc_common.params import param
 
 from .sim import Simulation
 
 CATCH_UP_LIMIT_S = 0.5  # wall-clock lag beyond which pacing stops trying to catch up [s]
+
+
+@dataclass
+class SimulatorParams:
+    """Everything the simulator node reads as scalars (private parameters); the robot and
+    laser models (``~robot/*``, ``~laser/*``) are read by ``RobotModel.from_dict`` and
+    ``LaserConfig.from_dict``."""
+
+    world: Optional[str] = param(None, "path of the world YAML (required)")
+    robots: str = param("", "space-separated namespaces of the robots to simulate (\"\": "
+                            "all, /: the one without namespace)")
+    real_time_factor: float = param(1.0, "cap on simulated/wall time; 0: as fast as possible")
+    seed: int = param(0, "seed of every random draw")
+    publish_map_to_odom: bool = param(False, "static map -> <ns>/odom = start pose")
+    link_dir: Optional[str] = param(None, "directory of the pty links (unset: "
+                                          "/tmp/ascc_sim_<pid>)")
+    physics_dt_s: float = param(0.01, "[s] physics step", gt=0.0)
+    clock_period_s: Optional[float] = param(None, "[s] /clock period (unset: physics_dt_s)",
+                                            gt=0.0)
+    wait_for_drivers_s: float = param(30.0, "[s wall] hold the clock until the drivers "
+                                            "opened their links, at most this long")
+    wait_for_scan_subscribers: bool = param(False, "also hold it until every scan has a "
+                                                   "subscriber")
+    max_sim_time_s: float = param(0.0, "[s] stop after this much simulated time; 0: never")
+    stats_file: str = param("", "write run statistics (JSON) there at the end")
+    ground_truth_rate_hz: float = param(20.0, "[Hz] ground truth poses, people", gt=0.0)
+    marker_rate_hz: float = param(2.0, "[Hz] markers", gt=0.0)
+    map_frame: str = param("map", "frame of the ground truth")
+
+    def clock_period(self) -> float:
+        """The /clock period [s]: ``clock_period_s``, unset: ``physics_dt_s``."""
+        return self.physics_dt_s if self.clock_period_s is None else self.clock_period_s
 
 
 class Periodic:

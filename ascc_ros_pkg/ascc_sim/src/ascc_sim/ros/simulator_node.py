@@ -3,7 +3,9 @@ virtual iRobot Create behind a pseudo-terminal (the real irobot_create_2_1 drive
 it), and publishes /clock, the lasers and the ground truth. The simulation itself lives
 in ascc_sim.sim / ascc_sim.runner; this file wires parameters, topics and links.
 
-Parameters (private): see the package README, section "simulator".
+Parameters (private): ``ascc_sim.runner.SimulatorParams`` (scalars) and ``~robot/*``,
+``~laser/*`` (``RobotModel.from_dict``, ``LaserConfig.from_dict``); see the package
+README, section "simulator".
 """
 import json
 import os
@@ -19,10 +21,11 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import MarkerArray
 
+from ascc_common.params import from_params
 from ascc_sim import messages as M
 from ascc_sim.laser import LaserConfig
 from ascc_sim.msg import SimObjectArray
-from ascc_sim.runner import SimRunner
+from ascc_sim.runner import SimRunner, SimulatorParams
 from ascc_sim.sim import RobotModel, Simulation, select_robots
 from ascc_sim.world import WorldError, load_world
 from irobot_create_2_1.pty_link import PtyLink
@@ -36,43 +39,33 @@ def link_name(namespace):
 
 class SimulatorNode:
     def __init__(self):
-        if not rospy.has_param("~world"):
+        p = from_params(SimulatorParams, rospy.get_param, "~")
+        if p.world is None:
             raise ValueError("parameter ~world (path of the world YAML) is not set")
-        world_path = str(rospy.get_param("~world"))
-        robots_arg = str(rospy.get_param("~robots", "")).split()
-        self.map_frame = rospy.get_param("~map_frame", "map")
-        seed = int(rospy.get_param("~seed", 0))
-        rtf = float(rospy.get_param("~real_time_factor", 1.0))
-        dt = float(rospy.get_param("~physics_dt_s", 0.01))
-        clock_period = float(rospy.get_param("~clock_period_s", dt))
-        truth_rate = float(rospy.get_param("~ground_truth_rate_hz", 20.0))
-        marker_rate = float(rospy.get_param("~marker_rate_hz", 2.0))
-        self.link_dir = rospy.get_param("~link_dir", "/tmp/ascc_sim_%d" % os.getpid())
-        map_to_odom = bool(rospy.get_param("~publish_map_to_odom", False))
-        max_sim_time = float(rospy.get_param("~max_sim_time_s", 0.0))
-        self.stats_file = rospy.get_param("~stats_file", "")
-        self.wait_drivers_s = float(rospy.get_param("~wait_for_drivers_s", 30.0))
-        self.wait_scans = bool(rospy.get_param("~wait_for_scan_subscribers", False))
+        self.map_frame = p.map_frame
+        self.link_dir = p.link_dir if p.link_dir is not None else "/tmp/ascc_sim_%d" % (
+            os.getpid())
+        self.stats_file = p.stats_file
+        self.wait_drivers_s = p.wait_for_drivers_s
+        self.wait_scans = p.wait_for_scan_subscribers
         self.model = RobotModel.from_dict(rospy.get_param("~robot", {}))
         self.laser_cfg = LaserConfig.from_dict(rospy.get_param("~laser", {}))
-        for name, value in (("physics_dt_s", dt), ("clock_period_s", clock_period),
-                            ("ground_truth_rate_hz", truth_rate),
-                            ("marker_rate_hz", marker_rate),
-                            ("laser/scan_period_s", self.laser_cfg.scan_period_s)):
-            if not value > 0:
-                raise ValueError("~%s must be > 0, got %g" % (name, value))
+        if not self.laser_cfg.scan_period_s > 0:
+            raise ValueError("~laser/scan_period_s must be > 0, got %g"
+                             % self.laser_cfg.scan_period_s)
 
-        self.world = load_world(world_path, self.model.radius_m)
-        self.specs = select_robots(self.world, robots_arg)
+        self.world = load_world(p.world, self.model.radius_m)
+        self.specs = select_robots(self.world, p.robots.split())
         self.creates = {s.name: VirtualCreate(wheel_base_m=self.model.wheel_base_m)
                         for s in self.specs}
-        self.sim = Simulation(self.world, self.creates, self.model, self.laser_cfg, seed)
+        self.sim = Simulation(self.world, self.creates, self.model, self.laser_cfg, p.seed)
         os.makedirs(self.link_dir, exist_ok=True)
         self.links = {s.name: PtyLink(self.creates[s.name],
                                       os.path.join(self.link_dir, link_name(s.namespace)))
                       for s in self.specs}
         rospy.on_shutdown(self.shutdown)
-        self.runner = SimRunner(self.sim, self.links, dt, rtf, max_sim_time)
+        self.runner = SimRunner(self.sim, self.links, p.physics_dt_s, p.real_time_factor,
+                                p.max_sim_time_s)
 
         # /clock is ROS's one global clock topic. Published synchronously: a queued
         # publisher hands every message to a writer thread, ten times the CPU at 100 Hz.
@@ -100,19 +93,19 @@ class SimulatorNode:
                                           latch=True)
         self.markers = M.MarkerBuilder(self.world, self.map_frame, self.model.radius_m)
         self.static_tf = tf2_ros.StaticTransformBroadcaster()
-        self._publish_static(map_to_odom)
+        self._publish_static(p.publish_map_to_odom)
 
-        self.runner.every(clock_period, self.on_clock)
+        self.runner.every(p.clock_period(), self.on_clock)
         period = self.laser_cfg.scan_period_s  # 10 Hz for the URG-04LX
         for i, spec in enumerate(self.specs):  # spread the robots' scans over the period
             self.runner.every(period, lambda t, s=spec: self.on_scan(t, s),
                               offset_s=period * i / len(self.specs))
-        self.runner.every(1.0 / truth_rate, self.on_truth)
-        self.runner.every(1.0 / marker_rate, self.on_markers)
+        self.runner.every(1.0 / p.ground_truth_rate_hz, self.on_truth)
+        self.runner.every(1.0 / p.marker_rate_hz, self.on_markers)
         rospy.loginfo("ascc_sim: world %s, robots %s, links in %s, real_time_factor %g, "
                       "seed %d", self.world.path,
                       ", ".join("%s (ns '%s')" % (s.name, s.namespace) for s in self.specs),
-                      self.link_dir, rtf, seed)
+                      self.link_dir, p.real_time_factor, p.seed)
 
     def _publish_static(self, map_to_odom):
         m = self.model
