@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+from ascc_common.params import from_params
 from ascc_eval.report import (
     ExplorationRecord,
     LaserGeometry,
+    MonitorParams,
     SeenArea,
     coverage,
     path_length,
@@ -158,3 +160,12 @@ def test_compose_and_exploration_record(tmp_path):
     for name in ("unit.json", "unit_map.png", "unit_coverage.png", "unit_explored.yaml",
                  "unit_explored.pgm"):
         assert (tmp_path / name).stat().st_size > 100
+
+
+def test_monitor_output_dir_falls_back_to_out_dir():
+    assert from_params(MonitorParams, {}.get).output_directory() == ""
+    assert from_params(MonitorParams, {"out_dir": "old"}.get).output_directory() == "old"
+    both = {"out_dir": "old", "output_dir": "new"}
+    assert from_params(MonitorParams, both.get).output_directory() == "new"
+    assert from_params(MonitorParams, {"out_dir": "old", "output_dir": ""}.get) \
+        .output_directory() == ""

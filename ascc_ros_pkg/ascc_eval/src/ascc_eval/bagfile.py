@@ -2,9 +2,21 @@
 connection carries the message's type, md5 and full definition, so `rosbag play` and
 `rosbag info` work on it."""
 import threading
+from dataclasses import dataclass
 from typing import Dict, Tuple
 
 from rosbags.rosbag1 import Writer
+
+from ascc_common.params import param
+
+
+@dataclass
+class BagRecorderParams:
+    """The bag_recorder node's scalar parameters (private); ``~topics`` (a list of names)
+    is read beside them."""
+
+    path: str = param("run.bag", "the bag's path (~ expanded, relative to the cwd)")
+    bz2: bool = param(False, "compress the chunks with bz2")
 
 
 class BagRecorder:

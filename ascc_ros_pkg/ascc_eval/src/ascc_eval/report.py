@@ -35,6 +35,7 @@ import numpy as np
 from ascc_common import pose2d
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_common.map_io import save_map
+from ascc_common.params import param
 from ascc_common.pose2d import wrap_angle
 from frontier_detector.frontiers import disk_kernel, snap_to_mask, traversable_mask
 
@@ -99,6 +100,29 @@ def scan_truth(truth: np.ndarray, known: np.ndarray, rc: Tuple[int, int], headin
     before[:, 1:] = np.logical_or.accumulate(occ, axis=1)[:, :-1]
     seen = inside & ~before
     known[rr[seen], cc[seen]] = truth[rr[seen], cc[seen]]
+
+
+@dataclass
+class MonitorParams:
+    """The exploration_monitor node's scalar parameters (private); ``~map_pose_in_truth``
+    ([x, y, yaw], unset by default) is a list and read beside them."""
+
+    robot: str = param("asccbot", "robot name in ground_truth/<robot>/...")
+    label: str = param("exploration", "run label (file names, plots)")
+    output_dir: Optional[str] = param(None, "directory of the report files (unset: "
+                                            "~out_dir)")
+    out_dir: str = param("", "older name of ~output_dir (\"\": no files)")
+    max_time_s: float = param(0.0, "[s] end the run after this much time; 0: no limit")
+    shutdown_when_finished: bool = param(True, "exit when the run ends")
+    clearance_m: float = param(0.18, "[m] footprint radius for the reachable area")
+    progress_period_s: float = param(10.0, "[s wall] period of the progress log line")
+    file_stem: str = param("", "stem of the report files (\"\": the file-safe label)")
+    robot_frame: str = param("base_link", "frame of the truth pose (the laser's mount)")
+    period_s: float = param(1.0, "[s] coverage period")
+
+    def output_directory(self) -> str:
+        """``output_dir``, unset: ``out_dir``."""
+        return self.out_dir if self.output_dir is None else self.output_dir
 
 
 @dataclass

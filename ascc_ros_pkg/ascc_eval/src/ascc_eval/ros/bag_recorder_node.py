@@ -3,13 +3,15 @@
 Subscribes to every topic of `~topics` (list of names, relative ones resolve in the node's
 namespace) as rospy.AnyMsg and writes the raw bytes with the publisher's type, md5 and
 message definition, so `rosbag play`/`rosbag info` read the result. `~path` (default
-`run.bag`), `~bz2` (false). The bag is closed on shutdown.
+`run.bag`), `~bz2` (false): ``ascc_eval.bagfile.BagRecorderParams``. The bag is closed on
+shutdown.
 """
 import os
 
 import rospy
 
-from ascc_eval.bagfile import BagRecorder
+from ascc_common.params import from_params
+from ascc_eval.bagfile import BagRecorder, BagRecorderParams
 
 DEFAULT_TOPICS = ["map", "scan", "odom", "cmd_vel", "/tf", "/tf_static", "sensorPacket",
                   "slam_gmapping/entropy", "frontier_explorer/status",
@@ -25,9 +27,10 @@ def rosbags_type(msgtype):
 
 class Recorder:
     def __init__(self):
-        path = os.path.abspath(os.path.expanduser(rospy.get_param("~path", "run.bag")))
+        p = from_params(BagRecorderParams, rospy.get_param, "~")
+        path = os.path.abspath(os.path.expanduser(p.path))
         os.makedirs(os.path.dirname(path), exist_ok=True)
-        self.bag = BagRecorder(path, bz2=bool(rospy.get_param("~bz2", False)))
+        self.bag = BagRecorder(path, bz2=p.bz2)
         for topic in rospy.get_param("~topics", DEFAULT_TOPICS):
             name = rospy.resolve_name(topic)
             rospy.Subscriber(name, rospy.AnyMsg, self.on_msg, callback_args=name,

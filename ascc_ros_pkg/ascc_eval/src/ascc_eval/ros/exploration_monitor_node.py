@@ -14,12 +14,9 @@ or `~max_time_s` of simulated time passed (0 = no limit), or the node shuts down
 `~output_dir` set it also writes `<label>.json`, `<label>_map.png`, `<label>_coverage.png`
 there (label made file-safe). Then, if `~shutdown_when_finished` (default true), the node
 exits, which ends a launch that marks it required.
-Parameters: ~robot (asccbot), ~label (exploration), ~output_dir (""), ~max_time_s (0),
-~clearance_m (0.18, footprint radius for the reachable area), ~period_s (1.0),
-~map_pose_in_truth ([x, y, yaw] or unset), ~shutdown_when_finished (true),
-~progress_period_s (10.0, wall-clock period of the progress log line), ~file_stem
-("": the file-safe label; the demo uses `summary`), ~robot_frame (base_link: the frame of
-the truth pose, for the laser's mount).
+Parameters: ``ascc_eval.report.MonitorParams`` (~robot, ~label, ~output_dir, ~max_time_s,
+~clearance_m, ~period_s, ~shutdown_when_finished, ~progress_period_s, ~file_stem: the demo
+uses `summary`, ~robot_frame) and ~map_pose_in_truth ([x, y, yaw] or unset).
 All the measuring is ascc_eval.report.ExplorationRecord; this file only wires it.
 """
 
@@ -34,26 +31,28 @@ from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64, String
 
+from ascc_common.params import from_params
 from ascc_common.pose2d import transform_points, yaw_of
-from ascc_eval.report import ExplorationRecord, LaserGeometry, compose
+from ascc_eval.report import ExplorationRecord, LaserGeometry, MonitorParams, compose
 from frontier_detector.rosmsg import grid_from_msg
 from irobot_create_2_1.msg import SensorPacket
 
 
 class Monitor:
     def __init__(self):
-        robot = rospy.get_param("~robot", "asccbot")
-        self.label = rospy.get_param("~label", "exploration")
-        self.out_dir = rospy.get_param("~output_dir", rospy.get_param("~out_dir", ""))
-        self.max_time = float(rospy.get_param("~max_time_s", 0.0))
-        self.shutdown_when_finished = bool(rospy.get_param("~shutdown_when_finished", True))
+        p = from_params(MonitorParams, rospy.get_param, "~")
+        robot = p.robot
+        self.label = p.label
+        self.out_dir = p.output_directory()
+        self.max_time = p.max_time_s
+        self.shutdown_when_finished = p.shutdown_when_finished
         self.status = ""
         self.t_start = None
-        self.clearance = float(rospy.get_param("~clearance_m", 0.18))
-        self.progress_period_s = float(rospy.get_param("~progress_period_s", 10.0))
-        self.file_stem = rospy.get_param("~file_stem", "")
+        self.clearance = p.clearance_m
+        self.progress_period_s = p.progress_period_s
+        self.file_stem = p.file_stem
         self.fixed_pose = rospy.get_param("~map_pose_in_truth", None)
-        self.robot_frame = rospy.get_param("~robot_frame", "base_link")
+        self.robot_frame = p.robot_frame
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.scan_msg = None
@@ -79,7 +78,7 @@ class Monitor:
         rospy.Subscriber("sensorPacket", SensorPacket, self._on_sensors, queue_size=20)
         rospy.Subscriber("frontier_explorer/status", String, self._on_status, queue_size=5)
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
-        rospy.Timer(rospy.Duration(float(rospy.get_param("~period_s", 1.0))), self._tick)
+        rospy.Timer(rospy.Duration(p.period_s), self._tick)
         rospy.on_shutdown(lambda: self._finish("shutdown"))
 
     def _store(self, name):
