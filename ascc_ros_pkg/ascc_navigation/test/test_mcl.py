@@ -226,3 +226,9 @@ def test_global_localization_converges_in_an_asymmetric_room():
         converged += np.hypot(*(mean[:2] - truth[last, :2])) < 0.1
         assert len(loc.poses) < 5000  # KLD shrank the cloud once it concentrated
     assert converged >= 4
+
+
+def test_mcl_node_params_hold_the_filter_and_amcl_initial_pose_defaults():
+    p = from_params(mcl.MclNodeParams, {"min_particles": 250, "initial_pose_x": 1}.get)
+    assert p.filter.min_particles == 250 and p.initial_pose_x == 1.0
+    assert p.initial_cov_aa == pytest.approx((np.pi / 12) ** 2) and p.seed == -1

@@ -390,3 +390,11 @@ def test_mapping_a_loop_of_the_synthetic_office():
     assert math.hypot(*(final[:2] - traj[k][:2])) < 0.1
     # ... much closer than the odometry alone
     assert math.hypot(*(final[:2] - traj[k][:2])) < 0.5 * math.hypot(*(odom[k][:2] - traj[k][:2]))
+
+
+def test_slam_node_params_tf_delay_follows_the_publish_period_and_seed_stays_unset():
+    p = from_params(M.SlamNodeParams, {"transform_publish_period": 0.1, "particles": 12}.get)
+    assert p.seed is None and p.tf_delay is None and p.tf_delay_s() == 0.1
+    assert p.mapper.rbpf.particles == 12
+    p = from_params(M.SlamNodeParams, {"tf_delay": 0.0, "seed": 7}.get)
+    assert p.tf_delay_s() == 0.0 and p.seed == 7

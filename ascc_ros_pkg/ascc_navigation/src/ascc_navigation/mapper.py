@@ -49,6 +49,28 @@ class MapperConfig:
     rbpf: RbpfConfig = nested(RbpfConfig)
 
 
+@dataclass
+class SlamNodeParams:
+    """Everything the slam_mapper node reads (private parameters): ``MapperConfig`` plus
+    the node's own settings."""
+
+    mapper: MapperConfig = nested(MapperConfig)
+    seed: Optional[int] = param(None, "random seed (unset: random)")
+    base_frame: str = param("base_link", "robot frame")
+    odom_frame: str = param("odom", "odometry frame")
+    map_frame: str = param("map", "map frame")
+    map_update_interval: float = param(5.0, "[s] map publication at most this often")
+    transform_publish_period: float = param(0.05, "[s] map -> odom TF period; <=0: none")
+    tf_delay: Optional[float] = param(None, "[s] map -> odom post-dating (unset: "
+                                            "transform_publish_period)")
+    tf_wait_s: float = param(0.5, "[s] wait for a scan's TF")
+    process_period_s: float = param(0.05, "[s] scan timer (ROS time)")
+
+    def tf_delay_s(self) -> float:
+        """``tf_delay``, unset: ``transform_publish_period`` (as gmapping)."""
+        return self.transform_publish_period if self.tf_delay is None else self.tf_delay
+
+
 class ScanInput:
     """The fields of a sensor_msgs/LaserScan the mapper needs (stamp in seconds)."""
 

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from ascc_common.grid import GridInfo
-from ascc_common.params import param
+from ascc_common.params import nested, param
 from ascc_common.pose2d import compose, inverse, wrap_angle
 from ascc_navigation.laser import LaserMount
 
@@ -65,6 +65,32 @@ class MclParams:
                               gt=0.0)
     kld_bin_yaw: float = param(float(np.deg2rad(10.0)), "[rad] histogram bin used by KLD "
                                "sampling", gt=0.0)
+
+
+@dataclass
+class MclNodeParams:
+    """Everything the mcl_localizer node reads (private parameters, amcl's names):
+    ``MclParams`` plus the node's own settings."""
+
+    filter: MclParams = nested(MclParams)
+    global_frame_id: str = param("map", "map frame")
+    odom_frame_id: str = param("odom", "odometry frame")
+    base_frame_id: str = param("base_link", "robot frame")
+    transform_tolerance: float = param(0.1, "[s] map -> odom post-dating")
+    tf_broadcast: bool = param(True, "broadcast map -> odom")
+    first_map_only: bool = param(False, "ignore maps after the first")
+    laser_min_range: float = param(-1.0, "[m] shorter beams dropped; -1: the scan's")
+    laser_max_range: float = param(-1.0, "[m] longer beams dropped; -1: the scan's")
+    gui_publish_rate: float = param(-1.0, "[Hz] particlecloud rate; <=0: every update")
+    tf_wait_s: float = param(0.1, "[s] wait for a scan's odometry TF")
+    initial_pose_x: float = param(0.0, "[m] initial pose")
+    initial_pose_y: float = param(0.0, "[m] initial pose")
+    initial_pose_a: float = param(0.0, "[rad] initial pose")
+    initial_cov_xx: float = param(0.25, "[m^2] initial covariance")
+    initial_cov_yy: float = param(0.25, "[m^2] initial covariance")
+    initial_cov_aa: float = param((np.pi / 12) ** 2, "[rad^2] initial covariance")
+    seed: int = param(-1, "random seed; < 0: random")
+    process_period_s: float = param(0.05, "[s] filter timer")
 
 
 class LikelihoodField:

@@ -6,8 +6,9 @@ from map_server or the simulator's ground truth remapped) and ``initialpose``
 base_link -> laser). Publishes ``amcl_pose`` (latched PoseWithCovarianceStamped, covariance
 from the particle spread), ``particlecloud`` (PoseArray) and TF map -> odom, post-dated by
 ``~transform_tolerance``. Services ``global_localization`` and ``request_nomotion_update``
-(std_srvs/Empty). Parameters: amcl's names (config/amcl.yaml, package README). Callbacks
-only store the newest message; a timer runs the filter (ascc_navigation.mcl).
+(std_srvs/Empty). Parameters: amcl's names (``ascc_navigation.mcl.MclNodeParams``,
+config/amcl.yaml, package README). Callbacks only store the newest message; a timer runs
+the filter (ascc_navigation.mcl).
 """
 
 import threading
@@ -40,26 +41,22 @@ def pose_msg(x, y, yaw):
 
 class MclLocalizerNode:
     def __init__(self):
-        self.params = from_params(mcl.MclParams, rospy.get_param, "~")
-        self.global_frame = rospy.get_param("~global_frame_id", "map")
-        self.odom_frame = rospy.get_param("~odom_frame_id", "odom")
-        self.base_frame = rospy.get_param("~base_frame_id", "base_link")
-        self.tf_tolerance = rospy.Duration(rospy.get_param("~transform_tolerance", 0.1))
-        self.tf_broadcast = rospy.get_param("~tf_broadcast", True)
-        self.first_map_only = rospy.get_param("~first_map_only", False)
-        self.laser_min_range = rospy.get_param("~laser_min_range", -1.0)  # [m], -1: scan's
-        self.laser_max_range = rospy.get_param("~laser_max_range", -1.0)  # [m], -1: scan's
-        gui_rate = rospy.get_param("~gui_publish_rate", -1.0)  # [Hz], -1: every update
+        p = from_params(mcl.MclNodeParams, rospy.get_param, "~")
+        self.params = p.filter
+        self.global_frame = p.global_frame_id
+        self.odom_frame = p.odom_frame_id
+        self.base_frame = p.base_frame_id
+        self.tf_tolerance = rospy.Duration(p.transform_tolerance)
+        self.tf_broadcast = p.tf_broadcast
+        self.first_map_only = p.first_map_only
+        self.laser_min_range = p.laser_min_range  # [m], -1: scan's
+        self.laser_max_range = p.laser_max_range  # [m], -1: scan's
+        gui_rate = p.gui_publish_rate  # [Hz], -1: every update
         self.cloud_period = rospy.Duration(1.0 / gui_rate) if gui_rate > 0 else rospy.Duration(0)
-        self.tf_wait = rospy.Duration(rospy.get_param("~tf_wait_s", 0.1))  # [s] for odom TF
-        self.initial = (np.array([rospy.get_param("~initial_pose_x", 0.0),
-                                  rospy.get_param("~initial_pose_y", 0.0),
-                                  rospy.get_param("~initial_pose_a", 0.0)]),
-                        np.diag([rospy.get_param("~initial_cov_xx", 0.25),
-                                 rospy.get_param("~initial_cov_yy", 0.25),
-                                 rospy.get_param("~initial_cov_aa", (np.pi / 12) ** 2)]))
-        seed = rospy.get_param("~seed", -1)
-        self.rng = np.random.default_rng(None if seed < 0 else seed)
+        self.tf_wait = rospy.Duration(p.tf_wait_s)  # [s] for odom TF
+        self.initial = (np.array([p.initial_pose_x, p.initial_pose_y, p.initial_pose_a]),
+                        np.diag([p.initial_cov_xx, p.initial_cov_yy, p.initial_cov_aa]))
+        self.rng = np.random.default_rng(None if p.seed < 0 else p.seed)
 
         self.lock = threading.Lock()
         self.pending_scan = None
@@ -84,8 +81,7 @@ class MclLocalizerNode:
                          queue_size=1)
         rospy.Service("global_localization", Empty, self.on_global_localization)
         rospy.Service("request_nomotion_update", Empty, self.on_nomotion_update)
-        period = rospy.get_param("~process_period_s", 0.05)  # [s] filter timer
-        self.timer = rospy.Timer(rospy.Duration(period), self.on_timer, reset=True)
+        self.timer = rospy.Timer(rospy.Duration(p.process_period_s), self.on_timer, reset=True)
 
     # -- callbacks: store the newest input -----------------------------------------------
     def on_scan(self, msg):

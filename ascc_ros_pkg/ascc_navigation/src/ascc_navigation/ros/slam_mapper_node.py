@@ -4,7 +4,7 @@ Subscribes ``scan`` (sensor_msgs/LaserScan) and reads odometry from TF (odom -> 
 base_link -> laser at the scan's stamp). Publishes ``map`` (latched nav_msgs/OccupancyGrid,
 -1/0/100), ``map_metadata`` (latched), ``~entropy`` (std_msgs/Float64), TF map -> odom, and
 serves ``dynamic_map`` (nav_msgs/GetMap). Parameters: gmapping's names (see
-``ascc_navigation.mapper.MapperConfig`` and the package README). The scan callback only stores
+``ascc_navigation.mapper.SlamNodeParams`` and the package README). The scan callback only stores
 the newest scan; a timer runs the filter, another one broadcasts map -> odom.
 """
 
@@ -35,16 +35,16 @@ DROP = "drop"  # lookup_poses: scan unusable (warned)
 
 class SlamMapperNode:
     def __init__(self):
-        self.mapper = M.SlamMapper(from_params(M.MapperConfig, rospy.get_param, "~"),
-                                   seed=rospy.get_param("~seed", None))
-        self.base_frame = rospy.get_param("~base_frame", "base_link")
-        self.odom_frame = rospy.get_param("~odom_frame", "odom")
-        self.map_frame = rospy.get_param("~map_frame", "map")
-        self.map_update_interval = rospy.Duration(rospy.get_param("~map_update_interval", 5.0))
-        tf_period = rospy.get_param("~transform_publish_period", 0.05)
+        p = from_params(M.SlamNodeParams, rospy.get_param, "~")
+        self.mapper = M.SlamMapper(p.mapper, seed=p.seed)
+        self.base_frame = p.base_frame
+        self.odom_frame = p.odom_frame
+        self.map_frame = p.map_frame
+        self.map_update_interval = rospy.Duration(p.map_update_interval)
+        tf_period = p.transform_publish_period
         self.last_tf_stamp = None
-        self.tf_delay = rospy.Duration(rospy.get_param("~tf_delay", tf_period))
-        self.tf_wait = rospy.Duration(rospy.get_param("~tf_wait_s", 0.5))
+        self.tf_delay = rospy.Duration(p.tf_delay_s())
+        self.tf_wait = rospy.Duration(p.tf_wait_s)
         self.lock = threading.Lock()
         self.scans = deque(maxlen=SCAN_BUFFER)  # newest unprocessed scans, oldest first
         self.map_msg = None          # last published map (for dynamic_map)
@@ -62,7 +62,7 @@ class SlamMapperNode:
         self.service = rospy.Service("dynamic_map", GetMap, self.on_get_map)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
         self.timers = [
-            rospy.Timer(rospy.Duration(rospy.get_param("~process_period_s", 0.05)),
+            rospy.Timer(rospy.Duration(p.process_period_s),
                         self.on_process, reset=True),
         ]
         if tf_period > 0.0:
