@@ -14,6 +14,7 @@ from ascc_common.grid import (
     GridInfo,
     grid_from_msg_data,
     grid_to_msg_data,
+    map_from_msg,
     to_trinary,
 )
 
@@ -155,3 +156,14 @@ def test_thresholding_rule():
     assert c == {"non_trinary": 0, "invalid": 0} and clean.shape == (2, 2)
     with pytest.raises(ValueError):
         to_trinary(raw, free_max=70, occupied_min=60)
+
+
+def test_map_from_msg_reads_geometry_and_data():
+    grid = np.array([[0, 100, -1], [100, 0, 50]], dtype=np.int8)
+    msg = SimpleNamespace(info=_msg_info(0.05, 3, 2, -1.0, 2.0), data=grid_to_msg_data(grid))
+    got, info = map_from_msg(msg)
+    assert np.array_equal(got, grid)                   # values as sent, not thresholded
+    assert info == GridInfo(0.05, 3, 2, -1.0, 2.0)
+    msg.data = msg.data[:-1]
+    with pytest.raises(ValueError):
+        map_from_msg(msg)

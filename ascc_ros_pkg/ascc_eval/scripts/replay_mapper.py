@@ -42,7 +42,7 @@ sys.path.insert(0, os.path.join(NAV, "src"))
 
 from bench_mapper import add_parameter_arguments, parameters_from_arguments  # noqa: E402
 
-from ascc_common.grid import FREE, UNKNOWN, GridInfo, grid_from_msg_data  # noqa: E402
+from ascc_common.grid import FREE, UNKNOWN, map_from_msg  # noqa: E402
 from ascc_common.map_io import save_map  # noqa: E402
 from ascc_common.params import from_params  # noqa: E402
 from ascc_common.pose2d import (  # noqa: E402
@@ -96,8 +96,7 @@ class RunBag:
                                 p.x, p.y, *(getattr(tr.transform.rotation, k) for k in "xyzw"))
                 elif conn.topic == "/ground_truth/map":
                     m = OccupancyGrid().deserialize(raw)
-                    self.truth_map = (grid_from_msg_data(m.data, m.info.width, m.info.height),
-                                      GridInfo.from_msg_info(m.info))
+                    self.truth_map = map_from_msg(m)
                 else:
                     m = PoseStamped().deserialize(raw)
                     truth.append((m.header.stamp.to_sec(), m.pose.position.x, m.pose.position.y,

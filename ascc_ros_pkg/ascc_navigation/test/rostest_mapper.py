@@ -25,7 +25,7 @@ from nav_msgs.srv import GetMap
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 
-from ascc_common.grid import GridInfo, grid_from_msg_data
+from ascc_common.grid import map_from_msg
 from ascc_common.pose2d import compose, inverse, wrap_angle, yaw_from_quaternion
 from ascc_navigation.grid import map_agreement
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
@@ -158,12 +158,11 @@ class MapperTest(unittest.TestCase):
         wait_for(lambda: rospy.Time.now() > settle, 60.0, "the final map to be published")
 
         msg = self.map.msg
-        grid = grid_from_msg_data(msg.data, msg.info.width, msg.info.height)
+        grid, info = map_from_msg(msg)
         self.assertTrue(set(np.unique(grid).tolist()) <= {-1, 0, 100})
         self.assertEqual(msg.header.frame_id, "map")
-        truth = grid_from_msg_data(truth_msg.data, truth_msg.info.width, truth_msg.info.height)
-        res = map_agreement(grid, GridInfo.from_msg_info(msg.info), truth,
-                            GridInfo.from_msg_info(truth_msg.info), offset=start)
+        truth, truth_info = map_from_msg(truth_msg)
+        res = map_agreement(grid, info, truth, truth_info, offset=start)
         rospy.loginfo("mapper rostest: %s", res)
         self.assertGreater(res["known"], 5000, "the map should cover part of the office")
         self.assertGreaterEqual(res["accuracy"], self.min_accuracy, str(res))

@@ -27,7 +27,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry
 
-from ascc_common.grid import OCCUPIED, GridInfo, grid_from_msg_data
+from ascc_common.grid import OCCUPIED, map_from_msg
 from ascc_common.pose2d import quaternion_from_yaw
 from ascc_testing.waits import Latest, pose_of, wait_for
 
@@ -93,8 +93,8 @@ class NavigationTest(unittest.TestCase):
 
     def check_no_collision(self, truths):
         m = self.truth_map.wait(10.0)
-        info = GridInfo.from_msg_info(m.info)
-        free = (grid_from_msg_data(m.data, info.width, info.height) != OCCUPIED)
+        grid, info = map_from_msg(m)
+        free = grid != OCCUPIED
         dist = cv2.distanceTransform(free.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         surface = np.maximum(dist - 0.5, 0.0) * info.resolution  # [m] to obstacle surfaces
         xy = np.array([pose_of(t)[:2] for t in truths])

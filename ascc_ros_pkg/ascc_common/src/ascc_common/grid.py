@@ -198,6 +198,14 @@ class GridInfo:
         return _out(np.asarray(x)), _out(np.asarray(y))
 
 
+def map_from_msg(msg) -> Tuple[np.ndarray, GridInfo]:
+    """A ``nav_msgs/OccupancyGrid`` (duck-typed) -> its int8 array (height, width) and
+    GridInfo, values as sent. ValueError if the geometry is invalid or the data and the
+    size disagree."""
+    info = GridInfo.from_msg_info(msg.info)
+    return grid_from_msg_data(msg.data, info.width, info.height), info
+
+
 def grid_from_msg_data(data, width: int, height: int) -> np.ndarray:
     """``OccupancyGrid.data`` (sequence or bytes of int8) -> int8 array (height, width).
 

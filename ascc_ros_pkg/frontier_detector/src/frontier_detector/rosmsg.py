@@ -23,7 +23,7 @@ from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ascc_common.grid import GridInfo, grid_from_msg_data, to_trinary
+from ascc_common.grid import GridInfo, map_from_msg, to_trinary
 from ascc_common.pose2d import quaternion_from_yaw
 
 from .goal_selection import Plan
@@ -33,8 +33,7 @@ def grid_from_msg(msg: OccupancyGrid, free_max: int = 19, occupied_min: int = 65
                   ) -> Tuple[np.ndarray, GridInfo, Dict[str, int]]:
     """Trinary grid, geometry and odd-value counts; ValueError if data and size disagree
     or the geometry is invalid (e.g. resolution 0)."""
-    info = GridInfo.from_msg_info(msg.info)
-    data = grid_from_msg_data(msg.data, info.width, info.height)
+    data, info = map_from_msg(msg)
     grid, counts = to_trinary(data, free_max, occupied_min)
     return grid, info, counts
 

@@ -21,7 +21,7 @@ from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty, EmptyResponse
 
-from ascc_common.grid import GridInfo, grid_from_msg_data
+from ascc_common.grid import map_from_msg
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import mcl
@@ -121,8 +121,8 @@ class MclLocalizerNode:
         if msg is None:
             return
         try:
-            info = GridInfo.from_msg_info(msg.info).check_axis_aligned()
-            grid = grid_from_msg_data(msg.data, info.width, info.height)
+            grid, info = map_from_msg(msg)
+            info.check_axis_aligned()
             field = mcl.LikelihoodField(grid, info, self.params.laser_sigma_hit,
                                         self.params.laser_z_hit, self.params.laser_z_rand,
                                         self.params.laser_likelihood_max_dist,

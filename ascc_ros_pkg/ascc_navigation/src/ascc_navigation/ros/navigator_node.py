@@ -30,7 +30,7 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedb
 from nav_msgs.msg import OccupancyGrid, Path
 from sensor_msgs.msg import LaserScan
 
-from ascc_common.grid import GridInfo, grid_from_msg_data
+from ascc_common.grid import map_from_msg
 from ascc_common.params import from_params
 from ascc_common.pose2d import compose, quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import navigation as nav
@@ -175,8 +175,8 @@ class NavigatorNode:
         if msg is None:
             return
         try:
-            info = GridInfo.from_msg_info(msg.info).check_axis_aligned()
-            grid = grid_from_msg_data(msg.data, info.width, info.height)
+            grid, info = map_from_msg(msg)
+            info.check_axis_aligned()
         except ValueError as e:
             rospy.logwarn_throttle(WARN_PERIOD_S, "move_base: ignoring map: %s" % e)
             return
