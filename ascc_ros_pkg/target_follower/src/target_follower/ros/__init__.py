@@ -1,0 +1,1 @@
+"""The target_follower nodes (rospy)."""
