@@ -15,6 +15,7 @@ import re
 import pytest
 
 from ascc_common.params import parameters
+from ascc_eval.follow_eval import FollowMonitorParams
 from ascc_navigation.mapper import SlamNodeParams
 from ascc_navigation.mcl import MclNodeParams
 from ascc_navigation.navigation import MoveBaseParams
@@ -30,6 +31,7 @@ TABLES = {
     "ascc_ros_pkg/ascc_navigation/README.md": [SlamNodeParams, MclNodeParams, MoveBaseParams],
     "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
     "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams],
+    "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams],
 }
 

@@ -1,0 +1,118 @@
+"""follow_monitor: measures a target-following run in the simulator (tests, benchmarks).
+
+Subscribes (relative names): `ground_truth/<~robot>/pose` (PoseStamped), `ground_truth/people`
+(ascc_sim/SimObjectArray: the followed person's pose, heading, speed and radius),
+`target_follower/state` (std_msgs/String, the follower's state) and `sensorPacket`
+(bumper hits). Every `~sample_period_s` of simulated time it stores one sample in an
+ascc_eval.follow_eval.FollowRecord. The run ends when `~max_time_s` passed, or the person
+has stood still for `~end_after_stop_s` after walking (its route ended), or the node shuts
+down; then it publishes `~summary` (std_msgs/String, JSON, latched), writes `<label>.json`
+and `<label>.png` to `~output_dir` when set, and exits if `~shutdown_when_finished`.
+Parameters: ascc_eval.follow_eval.FollowMonitorParams. All the measuring is FollowRecord;
+this file only wires it.
+"""
+
+import json
+import threading
+
+import rospy
+from geometry_msgs.msg import PoseStamped
+from std_msgs.msg import String
+
+from ascc_common.params import from_params
+from ascc_common.pose2d import yaw_of
+from ascc_eval.follow_eval import FollowMonitorParams, FollowRecord, FollowSample
+from ascc_sim.msg import SimObjectArray
+from irobot_create_2_1.msg import SensorPacket
+
+
+class FollowMonitor:
+    def __init__(self):
+        self.p = from_params(FollowMonitorParams, rospy.get_param, "~")
+        self.record = FollowRecord(self.p)
+        self.lock = threading.Lock()
+        self.robot = self.person = None
+        self.state = ""
+        self.bumping = False
+        self.walked = False
+        self.still_since = None
+        self.t_start = None
+        self.finished = False
+        self.sum_pub = rospy.Publisher("~summary", String, queue_size=1, latch=True)
+        rospy.Subscriber("ground_truth/%s/pose" % self.p.robot, PoseStamped, self._on_pose,
+                         queue_size=5)
+        rospy.Subscriber("ground_truth/people", SimObjectArray, self._on_people, queue_size=5)
+        rospy.Subscriber("target_follower/state", String, self._on_state, queue_size=5)
+        rospy.Subscriber("sensorPacket", SensorPacket, self._on_sensors, queue_size=20)
+        self.timer = rospy.Timer(rospy.Duration(self.p.sample_period_s), self._sample)
+        rospy.on_shutdown(lambda: self._finish("shutdown"))
+
+    def _on_pose(self, msg):
+        p = msg.pose
+        self.robot = (p.position.x, p.position.y, yaw_of(p.orientation))
+
+    def _on_people(self, msg):
+        for o in msg.objects:
+            if not self.p.person or o.name == self.p.person:
+                self.person = o
+                return
+        rospy.logwarn_throttle(10.0, "follow_monitor: no person %r in ground_truth/people"
+                               % self.p.person)
+
+    def _on_state(self, msg):
+        self.state = msg.data
+
+    def _on_sensors(self, msg):
+        hit = bool(msg.bumpLeft or msg.bumpRight)
+        if hit and not self.bumping:
+            with self.lock:
+                self.record.add_bump(rospy.get_time())
+            rospy.logwarn("follow_monitor: bumper hit at t=%.1f s" % rospy.get_time())
+        self.bumping = hit
+
+    def _sample(self, _event):
+        if self.finished or self.robot is None or self.person is None:
+            return
+        t = rospy.get_time()
+        o = self.person
+        pose = o.pose
+        sample = FollowSample(t, self.robot, (pose.position.x, pose.position.y,
+                                              yaw_of(pose.orientation)),
+                              o.speed, o.radius, self.state)
+        with self.lock:
+            self.record.add(sample)
+        if self.t_start is None:
+            self.t_start = t
+        if o.speed > 1e-3:
+            self.walked, self.still_since = True, None
+        elif self.walked and self.still_since is None:
+            self.still_since = t
+        if self.p.max_time_s > 0 and t - self.t_start >= self.p.max_time_s:
+            self._finish("max_time")
+        elif self.still_since is not None and t - self.still_since >= self.p.end_after_stop_s:
+            self._finish("route_done")
+
+    def _finish(self, reason):
+        with self.lock:
+            if self.finished:
+                return
+            self.finished = True
+            self.record.end_reason = reason
+            summary = self.record.summary()
+            files = self.record.write(self.p.output_dir) if self.p.output_dir else []
+        self.sum_pub.publish(String(data=json.dumps(summary)))
+        rospy.loginfo("follow_monitor: %s after %s s: straight error mean %s m, p95 %s m, "
+                      "bumps %d%s" % (reason, summary.get("duration_s"),
+                                      summary.get("straight_error_mean_m"),
+                                      summary.get("straight_error_p95_m"),
+                                      summary.get("bumps", 0),
+                                      "; wrote " + ", ".join(files) if files else ""))
+        if self.p.shutdown_when_finished and reason != "shutdown":
+            rospy.Timer(rospy.Duration(0.5), lambda _e: rospy.signal_shutdown(reason),
+                        oneshot=True)
+
+
+def main():
+    rospy.init_node("follow_monitor")
+    FollowMonitor()
+    rospy.spin()

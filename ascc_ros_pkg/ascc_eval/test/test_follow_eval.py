@@ -1,0 +1,85 @@
+"""follow_eval: distance, straight segments, corners, re-acquisition from synthetic runs."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from ascc_eval.follow_eval import FollowMonitorParams, FollowRecord, FollowSample
+
+R = 0.2  # person radius [m]
+
+
+def l_route_run(gap_m, state_of=lambda t: "following", dt=0.1):
+    """A person walking east 6 m then north 6 m at 0.3 m/s, the robot on the same path
+    ``gap_m(t)`` metres (centre to centre) behind."""
+    rec = FollowRecord(FollowMonitorParams())
+    v = 0.3
+    route = np.array([[0.0, 0.0], [6.0, 0.0], [6.0, 6.0]])
+
+    def at(s):
+        s = max(0.0, s)
+        if s <= 6.0:
+            return route[0] + [s, 0.0], 0.0
+        return route[1] + [0.0, min(s - 6.0, 6.0)], math.pi / 2
+
+    for k in range(int(40.0 / dt) + 1):
+        t = k * dt
+        s = v * t
+        p, heading = at(s)
+        q, robot_yaw = at(s - gap_m(t))
+        speed = v if s < 12.0 else 0.0
+        rec.add(FollowSample(t, (q[0], q[1], robot_yaw), (p[0], p[1], heading), speed, R,
+                             state_of(t)))
+    return rec
+
+
+def test_constant_gap_gives_zero_error_on_straight_segments():
+    rec = l_route_run(lambda t: 1.2 + R)
+    s = rec.summary()
+    assert s["straight_samples"] > 100
+    assert s["straight_error_mean_m"] == pytest.approx(0.0, abs=1e-6)
+    assert s["straight_error_p95_m"] == pytest.approx(0.0, abs=1e-6)
+    assert s["person_path_m"] == pytest.approx(12.0, abs=0.05)
+    assert len(s["corners"]) == 1 and s["corners"][0]["t_s"] == pytest.approx(20.0, abs=0.15)
+    assert s["corners_reacquired"] == 1 and s["bumps"] == 0
+
+
+def test_error_is_measured_from_the_set_point():
+    rec = l_route_run(lambda t: 1.2 + R + 0.5)
+    s = rec.summary()
+    assert s["straight_error_mean_m"] == pytest.approx(0.5, abs=1e-6)
+    assert s["straight_within_band"] == 0.0
+
+
+def test_samples_right_after_a_corner_are_not_straight():
+    rec = l_route_run(lambda t: 1.2 + R)
+    a = rec.arrays()
+    straight = rec.straight_mask(a["t"], a["person"][:, 2], a["speed"] > 1e-3)
+    t = a["t"]
+    assert not straight[(t > 20.0) & (t < 27.9)].any()
+    assert straight[(t > 28.1) & (t < 39.0)].all()
+    assert not straight[t < 7.9].any()
+
+
+def test_a_lost_person_after_the_corner_is_reported():
+    rec = l_route_run(lambda t: 1.4, state_of=lambda t: "searching" if 21 <= t < 25 else
+                      "following")
+    c = rec.summary()["corners"][0]
+    assert c["not_following_s"] == pytest.approx(4.0, abs=0.15)
+    assert c["reacquired"]
+    rec = l_route_run(lambda t: 1.4, state_of=lambda t: "lost" if t >= 21 else "following")
+    assert not rec.summary()["corners"][0]["reacquired"]
+
+
+def test_files_are_written(tmp_path):
+    rec = l_route_run(lambda t: 1.4)
+    rec.add_bump(3.0)
+    files = rec.write(str(tmp_path), "run")
+    assert [f.rsplit("/", 1)[1] for f in files] == ["run.json", "run.png"]
+    assert json.load(open(files[0]))["bumps"] == 1
+    assert (tmp_path / "run.png").stat().st_size > 1000
+
+
+def test_empty_record_summarises():
+    assert FollowRecord().summary()["samples"] == 0
