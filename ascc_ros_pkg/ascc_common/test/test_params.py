@@ -1,6 +1,7 @@
 """ascc_common.params: reading parameter dataclasses from a getter."""
+import math
 from dataclasses import dataclass
-from typing import Optional
+from typing import List, Optional
 
 import pytest
 
@@ -106,3 +107,68 @@ def test_none_default_needs_an_optional_type_and_optional_needs_none():
     for cls in (NoneDefault, OptionalWithDefault):
         with pytest.raises(TypeError, match="Optional"):
             from_params(cls, {}.get)
+
+
+@dataclass
+class _Lists:
+    topics: List[str] = param(["map", "scan"], "topics to record")
+    pose: Optional[List[float]] = param(None, "[m, m, rad] a pose", length=3)
+    gains: "List[float]" = param([1.0], "[-] gains", ge=0.0)
+
+
+def test_list_parameters_are_converted_element_by_element():
+    out = from_params(_Lists, {}.get)
+    assert out == _Lists(["map", "scan"], None, [1.0])
+    assert out.topics is not from_params(_Lists, {}.get).topics  # a fresh list each time
+    out = from_params(_Lists, {"topics": ("odom",), "pose": [1, "2.5", 0], "gains": []}.get)
+    assert out.topics == ["odom"] and out.pose == [1.0, 2.5, 0.0] and out.gains == []
+    assert all(isinstance(v, float) for v in out.pose)
+    listed = parameters(_Lists)
+    assert [(p.name, p.default) for p in listed] == [
+        ("topics", ["map", "scan"]), ("pose", None), ("gains", [1.0])]
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"pose": [1.0, 2.0]}, "parameter pose: expected list of 3 float, got [1.0, 2.0]"),
+    ({"pose": [1.0, 2.0, 3.0, 4.0]}, "parameter pose: expected list of 3 float"),
+    ({"pose": 1.0}, "parameter pose: expected list of 3 float, got 1.0"),
+    ({"pose": [1.0, "north", 0.0]}, "parameter pose[1]: expected float, got 'north'"),
+    ({"topics": "map scan"}, "parameter topics: expected list of str, got 'map scan'"),
+    ({"gains": [1.0, -0.5]}, "parameter gains[1]: must be >= 0.0, got -0.5"),
+])
+def test_bad_lists_name_the_parameter(values, message):
+    with pytest.raises(ParamError) as err:
+        from_params(_Lists, values.get)
+    assert message in str(err.value)
+
+
+@dataclass
+class _Mount:
+    x_m: float = param(0.05, "[m] mount ahead of the centre")
+    yaw_rad: float = param(0.0, "[rad] mount yaw", degrees=True)
+    half_angle_rad: float = param(math.radians(15.0), "[rad] half angle", degrees=True, gt=0.0)
+
+
+@dataclass
+class _Robot:
+    name: str = param("r", "robot name")
+    mount: _Mount = nested(_Mount, "mount/", closed=True)
+
+
+def test_angles_in_degrees_and_closed_namespaces():
+    out = from_params(_Robot, tree_getter({"mount": {"yaw_deg": 90, "half_angle_rad": 0.5}}))
+    assert out.mount.yaw_rad == pytest.approx(math.pi / 2) and out.mount.half_angle_rad == 0.5
+    assert from_params(_Robot, {"mount/half_angle_deg": 30.0}.get).mount.half_angle_rad \
+        == pytest.approx(math.radians(30.0))
+    assert parameters(_Robot)[2].degrees and not parameters(_Robot)[1].degrees
+    with pytest.raises(ParamError, match="parameter mount/half_angle_rad: must be > 0.0"):
+        from_params(_Robot, {"mount/half_angle_deg": 0.0}.get)
+    with pytest.raises(ParamError, match="parameter mount/yaw_deg: expected float"):
+        from_params(_Robot, {"mount/yaw_deg": "left"}.get)
+    with pytest.raises(ParamError, match="parameter mount/yaw_rad: give it or mount/yaw_deg"):
+        from_params(_Robot, {"mount/yaw_deg": 1.0, "mount/yaw_rad": 0.1}.get)
+    with pytest.raises(ParamError, match=r"parameter mount/x: unknown \(mount/\* takes "
+                                         r"half_angle_deg, half_angle_rad, x_m, yaw_deg"):
+        from_params(_Robot, tree_getter({"mount": {"x": 0.1}}))
+    with pytest.raises(TypeError, match="prefix ending in '/'"):
+        nested(_Mount, "", closed=True)

@@ -1,17 +1,23 @@
 """The URG-04LX model: vectorised ray casting against an independent per-beam grid
 traversal, circles against geometry, and the noise/dropout statistics."""
+import dataclasses
 import math
 import os
 
 import numpy as np
 import pytest
+import yaml
 
 from ascc_common.grid import OCCUPIED, GridInfo
+from ascc_common.params import from_params, tree_getter
 from ascc_sim.grid import GridMap
 from ascc_sim.laser import LaserConfig, LaserModel, RayCaster, cast_circles
+from ascc_sim.runner import SimulatorParams
+from ascc_sim.sim import RobotModel
 from ascc_sim.world import load_world
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CONFIG = os.path.join(PKG, "config")
 
 
 def reference_range(grid, x, y, angle, max_range):
@@ -134,11 +140,31 @@ def test_urg04lx_geometry():
     assert math.degrees(a[0]) == pytest.approx(-120.0)
     assert math.degrees(a[-1]) <= 120.0 and math.degrees(a[-1]) > 119.6
     assert (cfg.range_min_m, cfg.range_max_m, cfg.scan_period_s) == (0.02, 4.094, 0.1)
-    cfg2 = LaserConfig.from_dict({"angle_min_deg": -90, "angle_max_deg": 90,
-                                  "angle_increment_rad": math.radians(1.0)})
+    cfg2 = from_params(LaserConfig, {"angle_min_deg": -90, "angle_max_deg": 90,
+                                     "angle_increment_rad": math.radians(1.0)}.get)
     assert cfg2.n_beams == 181
-    with pytest.raises(ValueError):
-        LaserConfig.from_dict({"range_max": 4.0})
+    with pytest.raises(ValueError, match="parameter laser/range_max: unknown"):
+        from_params(SimulatorParams, tree_getter({"laser": {"range_max": 4.0}}))
+    for bad in ({"range_min_m": 5.0}, {"angle_max_deg": -130}, {"step_cells": 1.0},
+                {"scan_period_s": 0.0}, {"angle_increment_rad": 0.0}):
+        with pytest.raises(ValueError):
+            from_params(LaserConfig, bad.get)
+
+
+def test_shipped_robot_and_laser_files_are_the_defaults():
+    tree = {}
+    for ns, name in (("robot", "asccbot.yaml"), ("laser", "urg04lx.yaml")):
+        with open(os.path.join(CONFIG, name)) as f:
+            tree[ns] = yaml.safe_load(f)
+    p = from_params(SimulatorParams, tree_getter(tree))
+    for got, default in ((p.robot, RobotModel()), (p.laser, LaserConfig())):
+        for field in dataclasses.fields(default):
+            assert getattr(got, field.name) == pytest.approx(getattr(default, field.name),
+                                                            rel=1e-12, abs=1e-15), field.name
+    with pytest.raises(ValueError, match="parameter robot/wheel_base: unknown"):
+        from_params(SimulatorParams, tree_getter({"robot": {"wheel_base": 0.3}}))
+    with pytest.raises(ValueError, match="parameter robot/radius_m: must be > 0.0"):
+        from_params(SimulatorParams, tree_getter({"robot": {"radius_m": 0}}))
 
 
 def open_room_model(**cfg):

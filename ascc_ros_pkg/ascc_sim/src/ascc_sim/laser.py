@@ -13,43 +13,47 @@ other robots) are intersected analytically.
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, NamedTuple, Optional, Tuple
+from dataclasses import dataclass
+from typing import Optional, Tuple
 
 import cv2
 import numpy as np
 
+from ascc_common.params import param
+
 from .grid import GridMap
 
 
-def float_fields(fields: Tuple[str, ...], d: Dict[str, Any], what: str) -> Dict[str, float]:
-    """Keyword arguments for a NamedTuple of floats from a parameter dict: ``<name>_deg``
-    keys fill ``<name>_rad`` fields; an unknown key is a ValueError naming it."""
-    kw: Dict[str, float] = {}
-    for key, value in d.items():
-        if key.endswith("_deg") and key[:-4] + "_rad" in fields:
-            kw[key[:-4] + "_rad"] = math.radians(float(value))
-        elif key in fields:
-            kw[key] = float(value)
-        else:
-            raise ValueError("unknown %s parameter %r" % (what, key))
-    return kw
+@dataclass(frozen=True)
+class LaserConfig:
+    """The laser model's parameters (the simulator's ``~laser/*``, config/urg04lx.yaml);
+    angles may be given in degrees (``angle_min_deg`` for ``angle_min_rad``)."""
 
+    angle_min_rad: float = param(-120.0 * math.pi / 180.0, "[rad] first beam", degrees=True)
+    angle_max_rad: float = param(120.0 * math.pi / 180.0, "[rad] last beam at most",
+                                 degrees=True)
+    angle_increment_rad: float = param(2.0 * math.pi / 1024.0, "[rad] between beams",
+                                       degrees=True, gt=0.0)
+    range_min_m: float = param(0.02, "[m] closer returns are -inf", ge=0.0)
+    range_max_m: float = param(4.094, "[m] no return within it is +inf")
+    scan_period_s: float = param(0.1, "[s] time per scan", gt=0.0)
+    noise_sigma_frac: float = param(0.01, "[-] Gaussian range noise, fraction of the range")
+    noise_max_frac: float = param(0.03, "[-] noise clipped to +- this (datasheet accuracy)")
+    range_quantum_m: float = param(0.001, "[m] the sensor reports millimetres")
+    far_dropout_start_m: float = param(3.0, "[m] dropout probability rises from here ...")
+    far_dropout_prob: float = param(0.3, "[-] ... quadratically to this at range_max")
+    grazing_start_rad: float = param(70.0 * math.pi / 180.0, "[rad] incidence where "
+                                     "dropouts start", degrees=True)
+    grazing_dropout_prob: float = param(0.8, "[-] dropout probability at 90 deg incidence")
+    step_cells: float = param(0.95, "[cells] ray-casting sample spacing, < 1", gt=0.0)
 
-class LaserConfig(NamedTuple):
-    angle_min_rad: float = -120.0 * math.pi / 180.0
-    angle_max_rad: float = 120.0 * math.pi / 180.0
-    angle_increment_rad: float = 2.0 * math.pi / 1024.0
-    range_min_m: float = 0.02
-    range_max_m: float = 4.094
-    scan_period_s: float = 0.1
-    noise_sigma_frac: float = 0.01  # Gaussian range noise, fraction of the range
-    noise_max_frac: float = 0.03  # noise clipped to +-3 % (datasheet accuracy)
-    range_quantum_m: float = 0.001  # the sensor reports millimetres
-    far_dropout_start_m: float = 3.0  # dropout probability rises from here ...
-    far_dropout_prob: float = 0.3  # ... quadratically to this at range_max
-    grazing_start_rad: float = 70.0 * math.pi / 180.0  # incidence where dropouts start
-    grazing_dropout_prob: float = 0.8  # dropout probability at 90 deg incidence
-    step_cells: float = 0.95  # ray-casting sample spacing [cells], < 1
+    def validate(self) -> None:
+        if self.angle_max_rad <= self.angle_min_rad:
+            raise ValueError("laser angles: need angle_max > angle_min")
+        if not self.range_min_m < self.range_max_m:
+            raise ValueError("laser ranges: need range_min_m < range_max_m")
+        if not self.step_cells < 1.0:
+            raise ValueError("laser step_cells must be within (0, 1)")
 
     @property
     def n_beams(self) -> int:
@@ -60,18 +64,6 @@ class LaserConfig(NamedTuple):
     @property
     def angles(self) -> np.ndarray:
         return self.angle_min_rad + np.arange(self.n_beams) * self.angle_increment_rad
-
-    @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> LaserConfig:
-        """Build from a parameter dict; ``*_deg`` keys are accepted for angles."""
-        cfg = cls(**float_fields(cls._fields, d, "laser"))
-        if cfg.angle_increment_rad <= 0 or cfg.angle_max_rad <= cfg.angle_min_rad:
-            raise ValueError("laser angles: need angle_max > angle_min, increment > 0")
-        if not 0.0 <= cfg.range_min_m < cfg.range_max_m:
-            raise ValueError("laser ranges: need 0 <= range_min_m < range_max_m")
-        if not 0.0 < cfg.step_cells < 1.0:
-            raise ValueError("laser step_cells must be within (0, 1)")
-        return cfg
 
 
 class RayCaster:

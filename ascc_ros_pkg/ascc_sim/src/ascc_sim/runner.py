@@ -10,18 +10,18 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional
 
-from ascc_common.params import param
+from ascc_common.params import nested, param
 
-from .sim import Simulation
+from .laser import LaserConfig
+from .sim import RobotModel, Simulation
 
 CATCH_UP_LIMIT_S = 0.5  # wall-clock lag beyond which pacing stops trying to catch up [s]
 
 
 @dataclass
 class SimulatorParams:
-    """Everything the simulator node reads as scalars (private parameters); the robot and
-    laser models (``~robot/*``, ``~laser/*``) are read by ``RobotModel.from_dict`` and
-    ``LaserConfig.from_dict``."""
+    """Everything the simulator node reads (private parameters), the robot and laser
+    models under ``~robot/*`` and ``~laser/*`` (names they do not declare are errors)."""
 
     world: Optional[str] = param(None, "path of the world YAML (required)")
     robots: str = param("", "space-separated namespaces of the robots to simulate (\"\": "
@@ -43,6 +43,8 @@ class SimulatorParams:
     ground_truth_rate_hz: float = param(20.0, "[Hz] ground truth poses, people", gt=0.0)
     marker_rate_hz: float = param(2.0, "[Hz] markers", gt=0.0)
     map_frame: str = param("map", "frame of the ground truth")
+    robot: RobotModel = nested(RobotModel, "robot/", closed=True)
+    laser: LaserConfig = nested(LaserConfig, "laser/", closed=True)
 
     def clock_period(self) -> float:
         """The /clock period [s]: ``clock_period_s``, unset: ``physics_dt_s``."""

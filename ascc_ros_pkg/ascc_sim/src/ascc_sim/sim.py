@@ -11,39 +11,38 @@ driver reading it -- drifts against the ground truth kept here. The Create is in
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
+from dataclasses import dataclass
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.params import param
 from ascc_common.pose2d import wrap_angle
 
-from .laser import LaserConfig, LaserModel, float_fields
+from .laser import LaserConfig, LaserModel
 from .people import PersonState, ScriptedPerson
 from .world import RobotSpec, World
 
 
-class RobotModel(NamedTuple):
-    """The ASCCbot: iRobot Create base + Hokuyo on the plexiglass stand (config/asccbot.yaml)."""
-    radius_m: float = 0.165  # 0.33 m round footprint
-    wheel_base_m: float = 0.258
-    max_wheel_accel_mps2: float = 2.0  # wheel speed tracking limit
-    laser_x_m: float = 0.05  # laser mount in base_link
-    laser_y_m: float = 0.0
-    laser_z_m: float = 0.30
-    laser_yaw_rad: float = 0.0
-    bump_margin_m: float = 0.005  # an obstacle this close to the bumper presses it
-    bump_center_half_angle_rad: float = math.radians(15.0)  # both switches within +-15 deg
-    encoder_scale_sigma: float = 0.003  # per-wheel systematic scale error, drawn per robot
-    encoder_noise_m_per_sqrt_m: float = 0.004  # wheel travel noise sigma = k * sqrt(|d|)
+@dataclass(frozen=True)
+class RobotModel:
+    """The ASCCbot: iRobot Create base + Hokuyo on the plexiglass stand (the simulator's
+    ``~robot/*``, config/asccbot.yaml); angles may be given in degrees (``*_deg``)."""
 
-    @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> RobotModel:
-        m = cls(**float_fields(cls._fields, d, "robot model"))
-        if m.radius_m <= 0 or m.wheel_base_m <= 0 or m.max_wheel_accel_mps2 <= 0:
-            raise ValueError("radius_m, wheel_base_m and max_wheel_accel_mps2 must be > 0")
-        if m.encoder_scale_sigma < 0 or m.encoder_noise_m_per_sqrt_m < 0:
-            raise ValueError("encoder noise parameters must be >= 0")
-        return m
+    radius_m: float = param(0.165, "[m] round footprint (0.33 m)", gt=0.0)
+    wheel_base_m: float = param(0.258, "[m] distance between the wheels", gt=0.0)
+    max_wheel_accel_mps2: float = param(2.0, "[m/s^2] wheel speed tracking limit", gt=0.0)
+    laser_x_m: float = param(0.05, "[m] laser mount in base_link")
+    laser_y_m: float = param(0.0, "[m] laser mount in base_link")
+    laser_z_m: float = param(0.30, "[m] laser mount in base_link")
+    laser_yaw_rad: float = param(0.0, "[rad] laser mount in base_link", degrees=True)
+    bump_margin_m: float = param(0.005, "[m] an obstacle this close to the bumper presses it")
+    bump_center_half_angle_rad: float = param(math.radians(15.0), "[rad] contacts within "
+                                              "+- this press both switches", degrees=True)
+    encoder_scale_sigma: float = param(0.003, "[-] per-wheel systematic scale error, drawn "
+                                              "per robot", ge=0.0)
+    encoder_noise_m_per_sqrt_m: float = param(0.004, "[m/sqrt(m)] wheel travel noise sigma "
+                                                     "= k * sqrt(|d|)", ge=0.0)
 
 
 class RobotState:

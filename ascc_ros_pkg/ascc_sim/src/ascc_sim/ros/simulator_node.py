@@ -3,9 +3,9 @@ virtual iRobot Create behind a pseudo-terminal (the real irobot_create_2_1 drive
 it), and publishes /clock, the lasers and the ground truth. The simulation itself lives
 in ascc_sim.sim / ascc_sim.runner; this file wires parameters, topics and links.
 
-Parameters (private): ``ascc_sim.runner.SimulatorParams`` (scalars) and ``~robot/*``,
-``~laser/*`` (``RobotModel.from_dict``, ``LaserConfig.from_dict``); see the package
-README, section "simulator".
+Parameters (private): ``ascc_sim.runner.SimulatorParams``, with ``~robot/*``
+(``ascc_sim.sim.RobotModel``) and ``~laser/*`` (``ascc_sim.laser.LaserConfig``); see the
+package README, section "In your own launch files".
 """
 import json
 import os
@@ -23,10 +23,9 @@ from visualization_msgs.msg import MarkerArray
 
 from ascc_common.params import from_params
 from ascc_sim import messages as M
-from ascc_sim.laser import LaserConfig
 from ascc_sim.msg import SimObjectArray
 from ascc_sim.runner import SimRunner, SimulatorParams
-from ascc_sim.sim import RobotModel, Simulation, select_robots
+from ascc_sim.sim import Simulation, select_robots
 from ascc_sim.world import WorldError, load_world
 from irobot_create_2_1.pty_link import PtyLink
 from irobot_create_2_1.virtual_create import VirtualCreate
@@ -48,11 +47,8 @@ class SimulatorNode:
         self.stats_file = p.stats_file
         self.wait_drivers_s = p.wait_for_drivers_s
         self.wait_scans = p.wait_for_scan_subscribers
-        self.model = RobotModel.from_dict(rospy.get_param("~robot", {}))
-        self.laser_cfg = LaserConfig.from_dict(rospy.get_param("~laser", {}))
-        if not self.laser_cfg.scan_period_s > 0:
-            raise ValueError("~laser/scan_period_s must be > 0, got %g"
-                             % self.laser_cfg.scan_period_s)
+        self.model = p.robot
+        self.laser_cfg = p.laser
 
         self.world = load_world(p.world, self.model.radius_m)
         self.specs = select_robots(self.world, p.robots.split())
