@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
-from ascc_common.params import from_params
+from ascc_common.params import ParamError, from_params
 from ascc_eval.report import (
     ExplorationRecord,
     LaserGeometry,
@@ -169,3 +169,11 @@ def test_monitor_output_dir_falls_back_to_out_dir():
     assert from_params(MonitorParams, both.get).output_directory() == "new"
     assert from_params(MonitorParams, {"out_dir": "old", "output_dir": ""}.get) \
         .output_directory() == ""
+
+
+def test_monitor_map_pose_is_three_numbers_or_unset():
+    assert from_params(MonitorParams, {}.get).map_pose_in_truth is None
+    pose = from_params(MonitorParams, {"map_pose_in_truth": [1, 2.5, "0.5"]}.get)
+    assert pose.map_pose_in_truth == [1.0, 2.5, 0.5]
+    with pytest.raises(ParamError, match="parameter ~map_pose_in_truth: expected list of 3"):
+        from_params(MonitorParams, {"~map_pose_in_truth": [1.0, 2.0]}.get, "~")

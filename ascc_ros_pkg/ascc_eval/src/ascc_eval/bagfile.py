@@ -3,7 +3,7 @@ connection carries the message's type, md5 and full definition, so `rosbag play`
 `rosbag info` work on it."""
 import threading
 from dataclasses import dataclass
-from typing import Dict, Tuple
+from typing import Dict, List, Tuple
 
 from rosbags.rosbag1 import Writer
 
@@ -12,11 +12,17 @@ from ascc_common.params import param
 
 @dataclass
 class BagRecorderParams:
-    """The bag_recorder node's scalar parameters (private); ``~topics`` (a list of names)
-    is read beside them."""
+    """The bag_recorder node's parameters (private)."""
 
     path: str = param("run.bag", "the bag's path (~ expanded, relative to the cwd)")
     bz2: bool = param(False, "compress the chunks with bz2")
+    topics: List[str] = param(["map", "scan", "odom", "cmd_vel", "/tf", "/tf_static",
+                               "sensorPacket", "slam_gmapping/entropy",
+                               "frontier_explorer/status", "frontier_explorer/markers",
+                               "move_base/goal", "move_base/result", "ground_truth/map",
+                               "ground_truth/asccbot/pose"],
+                              "topics to record (relative ones resolve in the node's "
+                              "namespace)")
 
 
 class BagRecorder:

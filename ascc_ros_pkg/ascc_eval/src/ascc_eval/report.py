@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Dict, Iterable, Optional, Sequence, Tuple
+from typing import Dict, Iterable, List, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
@@ -104,8 +104,7 @@ def scan_truth(truth: np.ndarray, known: np.ndarray, rc: Tuple[int, int], headin
 
 @dataclass
 class MonitorParams:
-    """The exploration_monitor node's scalar parameters (private); ``~map_pose_in_truth``
-    ([x, y, yaw], unset by default) is a list and read beside them."""
+    """The exploration_monitor node's parameters (private)."""
 
     robot: str = param("asccbot", "robot name in ground_truth/<robot>/...")
     label: str = param("exploration", "run label (file names, plots)")
@@ -119,6 +118,9 @@ class MonitorParams:
     file_stem: str = param("", "stem of the report files (\"\": the file-safe label)")
     robot_frame: str = param("base_link", "frame of the truth pose (the laser's mount)")
     period_s: float = param(1.0, "[s] coverage period")
+    map_pose_in_truth: Optional[List[float]] = param(
+        None, "[m, m, rad] the explored map's frame in the truth frame (unset: the robot's "
+              "start pose)", length=3)
 
     def output_directory(self) -> str:
         """``output_dir``, unset: ``out_dir``."""

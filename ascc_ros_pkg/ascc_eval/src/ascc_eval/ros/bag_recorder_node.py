@@ -3,8 +3,8 @@
 Subscribes to every topic of `~topics` (list of names, relative ones resolve in the node's
 namespace) as rospy.AnyMsg and writes the raw bytes with the publisher's type, md5 and
 message definition, so `rosbag play`/`rosbag info` read the result. `~path` (default
-`run.bag`), `~bz2` (false): ``ascc_eval.bagfile.BagRecorderParams``. The bag is closed on
-shutdown.
+`run.bag`), `~bz2` (false), `~topics`: ``ascc_eval.bagfile.BagRecorderParams``. The bag is
+closed on shutdown.
 """
 import os
 
@@ -12,11 +12,6 @@ import rospy
 
 from ascc_common.params import from_params
 from ascc_eval.bagfile import BagRecorder, BagRecorderParams
-
-DEFAULT_TOPICS = ["map", "scan", "odom", "cmd_vel", "/tf", "/tf_static", "sensorPacket",
-                  "slam_gmapping/entropy", "frontier_explorer/status",
-                  "frontier_explorer/markers", "move_base/goal", "move_base/result",
-                  "ground_truth/map", "ground_truth/asccbot/pose"]
 
 
 def rosbags_type(msgtype):
@@ -31,7 +26,7 @@ class Recorder:
         path = os.path.abspath(os.path.expanduser(p.path))
         os.makedirs(os.path.dirname(path), exist_ok=True)
         self.bag = BagRecorder(path, bz2=p.bz2)
-        for topic in rospy.get_param("~topics", DEFAULT_TOPICS):
+        for topic in p.topics:
             name = rospy.resolve_name(topic)
             rospy.Subscriber(name, rospy.AnyMsg, self.on_msg, callback_args=name,
                              queue_size=100)

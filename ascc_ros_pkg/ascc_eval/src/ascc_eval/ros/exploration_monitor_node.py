@@ -16,7 +16,7 @@ there (label made file-safe). Then, if `~shutdown_when_finished` (default true),
 exits, which ends a launch that marks it required.
 Parameters: ``ascc_eval.report.MonitorParams`` (~robot, ~label, ~output_dir, ~max_time_s,
 ~clearance_m, ~period_s, ~shutdown_when_finished, ~progress_period_s, ~file_stem: the demo
-uses `summary`, ~robot_frame) and ~map_pose_in_truth ([x, y, yaw] or unset).
+uses `summary`, ~robot_frame, ~map_pose_in_truth: [x, y, yaw] or unset).
 All the measuring is ascc_eval.report.ExplorationRecord; this file only wires it.
 """
 
@@ -51,7 +51,7 @@ class Monitor:
         self.clearance = p.clearance_m
         self.progress_period_s = p.progress_period_s
         self.file_stem = p.file_stem
-        self.fixed_pose = rospy.get_param("~map_pose_in_truth", None)
+        self.fixed_pose = p.map_pose_in_truth
         self.robot_frame = p.robot_frame
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
