@@ -5,8 +5,8 @@ the "default" column (cells list several names and defaults in the same order, s
 by " / ", ";" or ","; one default in a cell of several names is theirs, e.g. a launch
 argument and its node parameter; a leading "~" is dropped). Defaults written as formulas ("π/6",
 "range_max − 0.01", "= period") and those of parameters unset by default (None: "random")
-are not compared. Names the dataclass does not declare (launch-only arguments, list-valued
-parameters read beside it) are skipped.
+are not compared. Names the dataclass does not declare (launch-only arguments) are
+skipped.
 """
 import math
 import os
@@ -22,6 +22,7 @@ from ascc_navigation.navigation import MoveBaseParams
 from ascc_sim.runner import SimulatorParams
 from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
+from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -32,7 +33,8 @@ TABLES = {
     "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
     "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams],
     "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
-    "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams],
+    "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
+                                                 DriveSquareParams],
 }
 
 

@@ -4,6 +4,7 @@ Drives `~side_m` forward, turns 90 deg left, four times, at `~speed_m_s` and
 `~turn_rate_rad_s`, closing each leg on `odom`; logs the odometry at every corner and, when
 `~compare_topic` (nav_msgs/Odometry, e.g. the virtual Create's ground truth) is set, the
 odometry error against it. Exits when done (use required="true" in a launch file).
+Parameters: ``irobot_create_2_1.square.DriveSquareParams``.
 """
 import math
 
@@ -11,15 +12,18 @@ import rospy
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
+from ascc_common.params import from_params
 from ascc_common.pose2d import wrap_angle, yaw_of
+from irobot_create_2_1.square import DriveSquareParams
 
 
 class SquareDriver:
     def __init__(self):
-        self.side_m = float(rospy.get_param("~side_m", 1.0))
-        self.speed = float(rospy.get_param("~speed_m_s", 0.2))
-        self.turn_rate = float(rospy.get_param("~turn_rate_rad_s", 0.5))
-        compare = rospy.get_param("~compare_topic", "")
+        p = from_params(DriveSquareParams, rospy.get_param, "~")
+        self.side_m = p.side_m
+        self.speed = p.speed_m_s
+        self.turn_rate = p.turn_rate_rad_s
+        compare = p.compare_topic
         self.pose = None
         self.truth = None
         self.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
@@ -80,5 +84,10 @@ class SquareDriver:
 
 def main():
     rospy.init_node("drive_square")
-    SquareDriver().run()
+    try:
+        driver = SquareDriver()
+    except ValueError as exc:
+        rospy.logfatal("drive_square: bad parameter: %s", exc)
+        raise SystemExit(1) from exc
+    driver.run()
 
