@@ -25,7 +25,7 @@ from ascc_common.grid import UNKNOWN, GridInfo
 from frontier_detector import explorer as ex
 from frontier_detector.frontiers import traversable_mask
 from frontier_detector.goal_selection import Plan, PlannerParams
-from frontier_detector.paths import _DC, _DR, _MOVES
+from frontier_detector.paths import DC, DR, MOVES
 
 from .report import coverage, reachable_area, scan_truth
 
@@ -67,7 +67,7 @@ def backtrack(result: Plan, goal_rc: Tuple[int, int]) -> List[Tuple[int, int]]:
     node = g.node(goal_rc[0] - r0, goal_rc[1] - c0)
     if not np.isfinite(dist[node]):
         return []
-    offsets = _DR * g.shape[1] + _DC
+    offsets = DR * g.shape[1] + DC
     back = np.array([1, 0, 3, 2, 7, 6, 5, 4])           # reverse direction of each move
     cells = []
     for _ in range(dist.size):                           # at most one visit per block
@@ -75,10 +75,10 @@ def backtrack(result: Plan, goal_rc: Tuple[int, int]) -> List[Tuple[int, int]]:
         cells.append(((i - 1) * g.k + g.k // 2 + r0, (j - 1) * g.k + g.k // 2 + c0))
         if dist[node] == 0.0:
             break
-        moves = _MOVES[g.allow[node]]
+        moves = MOVES[g.allow[node]]
         nbs = node + offsets[moves]
         # Neighbours that can step to this node; take the one closest to the start.
-        ok = _MOVES[g.allow[nbs]][np.arange(nbs.size), back[moves]]
+        ok = MOVES[g.allow[nbs]][np.arange(nbs.size), back[moves]]
         if not ok.any():
             break
         nbs = nbs[ok]

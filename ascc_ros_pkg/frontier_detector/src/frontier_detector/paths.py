@@ -22,14 +22,15 @@ from typing import Tuple
 
 import numpy as np
 
-# Direction order of the allow bits: E, W, S, N, SE, SW, NE, NW, where E/W = col +1/-1 and
-# S/N = row +1/-1 of the grid (names only: row +1 is +y in the map frame).
-_DR = np.array([0, 0, 1, -1, 1, 1, -1, -1])
-_DC = np.array([1, -1, 0, 0, 1, -1, 1, -1])
+# Public (ascc_eval.offline walks the same graph): DR, DC are the row and column steps of
+# the 8 moves, in the order of the allow bits: E, W, S, N, SE, SW, NE, NW, where E/W = col
+# +1/-1 and S/N = row +1/-1 of the grid (names only: row +1 is +y in the map frame).
+DR = np.array([0, 0, 1, -1, 1, 1, -1, -1])
+DC = np.array([1, -1, 0, 0, 1, -1, 1, -1])
 _STEP = np.array([1.0, 1.0, 1.0, 1.0, math.sqrt(2), math.sqrt(2), math.sqrt(2), math.sqrt(2)],
                  dtype=np.float32)
-# _MOVES[allow byte] -> the 8 booleans of its bits.
-_MOVES = ((np.arange(256)[:, None] >> np.arange(8)[None, :]) & 1).astype(bool)
+# MOVES[allow byte] -> the 8 booleans of its bits (move d allowed), shape (256, 8).
+MOVES = ((np.arange(256)[:, None] >> np.arange(8)[None, :]) & 1).astype(bool)
 
 
 def block_size(resolution: float, clearance_m: float, path_resolution_m: float) -> int:
@@ -105,13 +106,13 @@ def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.n
     """
     n = graph.allow.size
     steps = np.full(n, np.inf, dtype=np.float32)
-    offsets = (_DR * graph.shape[1] + _DC).astype(np.int64)
+    offsets = (DR * graph.shape[1] + DC).astype(np.int64)
     stamp = np.zeros(n, dtype=np.int64)
     order = np.arange(n, dtype=np.int64)
     steps[start_node] = 0.0
     front = np.array([start_node], dtype=np.int64)
     while front.size:
-        ok = _MOVES[graph.allow[front]]                       # (F, 8) allowed moves
+        ok = MOVES[graph.allow[front]]                        # (F, 8) allowed moves
         nb = (front[:, None] + offsets)[ok]
         new = np.isinf(steps[nb])
         nb = nb[new]
