@@ -1,0 +1,97 @@
+"""The target_follower node's pure parts (no rospy): its parameters, the odometry history
+that places each camera frame at the robot's pose when it was taken, and the check of one
+target_follower/Detection before it becomes a tracker ``Observation``."""
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+from ascc_common.params import nested, param
+from ascc_common.pose2d import wrap_angle
+
+from .follower import FollowerParams
+from .tracker import KINDS, Observation, TrackerParams
+
+RANGE_NONE = 0  # target_follower/Detection's range_source values
+RANGE_LASER = 1
+RANGE_SIZE = 2
+
+
+@dataclass
+class TargetFollowerParams:
+    """Every ``~`` parameter of the target_follower node."""
+
+    rate_hz: float = param(10.0, "[Hz] control rate (a timer; callbacks only store)", gt=0.0)
+    start_enabled: bool = param(True, "follow from the start (else wait for ~enable)")
+    base_frame: str = param("base_link", "the robot's frame (Target messages' frame_id)")
+    odom_history_s: float = param(2.0, "[s] odometry kept to look up the robot's pose at "
+                                       "a camera frame's stamp", gt=0.0)
+    follower: FollowerParams = nested(FollowerParams)
+    tracker: TrackerParams = nested(TrackerParams)
+
+
+class OdomHistory:
+    """Recent odometry poses (x, y, yaw) by stamp [s]; ``pose_at`` interpolates."""
+
+    def __init__(self, keep_s: float):
+        self.keep_s = keep_s
+        self.stamps: List[float] = []
+        self.poses: List[Tuple[float, float, float]] = []
+
+    def clear(self) -> None:
+        self.stamps, self.poses = [], []
+
+    def add(self, stamp_s: float, pose: Tuple[float, float, float]) -> None:
+        """Append a pose; one older than the newest is dropped (out of order)."""
+        if self.stamps and stamp_s < self.stamps[-1]:
+            return
+        self.stamps.append(stamp_s)
+        self.poses.append(pose)
+        cut = bisect.bisect_left(self.stamps, stamp_s - self.keep_s)
+        if cut > 0:
+            del self.stamps[:cut], self.poses[:cut]
+
+    def newest(self) -> Optional[Tuple[float, float, float]]:
+        return self.poses[-1] if self.poses else None
+
+    def pose_at(self, stamp_s: float) -> Optional[Tuple[float, float, float]]:
+        """The pose at ``stamp_s``, interpolated; the oldest/newest outside the history."""
+        if not self.stamps:
+            return None
+        i = bisect.bisect_left(self.stamps, stamp_s)
+        if i == 0:
+            return self.poses[0]
+        if i == len(self.stamps):
+            return self.poses[-1]
+        t0, t1 = self.stamps[i - 1], self.stamps[i]
+        a, b = self.poses[i - 1], self.poses[i]
+        f = (stamp_s - t0) / (t1 - t0) if t1 > t0 else 1.0
+        return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]),
+                wrap_angle(a[2] + f * wrap_angle(b[2] - a[2])))
+
+
+def observation_from_detection(d) -> Tuple[Optional[Observation], str]:
+    """A target_follower/Detection (any object with its fields) as an ``Observation``, or
+    (None, what is wrong with it). The position is the message's, else it is made from
+    the range and bearing; neither: bearing only."""
+    if d.kind not in KINDS:
+        return None, "unknown kind %r" % d.kind
+    if not math.isfinite(d.bearing_rad):
+        return None, "%s detection with a non-finite bearing (%r)" % (d.kind, d.bearing_rad)
+    x, y = d.position.x, d.position.y
+    if d.range_source != RANGE_NONE and not (math.isfinite(d.range_m) and d.range_m > 0.0):
+        return None, "%s detection with range_source %d but range_m %r" % (
+            d.kind, d.range_source, d.range_m)
+    if not (math.isfinite(x) and math.isfinite(y)):
+        if d.range_source == RANGE_NONE:
+            x = y = math.nan
+        else:
+            x, y = d.range_m * math.cos(d.bearing_rad), d.range_m * math.sin(d.bearing_rad)
+    elif d.range_source == RANGE_NONE:
+        x = y = math.nan  # no range: a position would be a guess
+    area = d.area_px if math.isfinite(d.area_px) and d.area_px > 0.0 else math.nan
+    confidence = d.confidence if math.isfinite(d.confidence) else 0.0
+    return Observation(d.kind, float(d.bearing_rad), float(x), float(y), float(area),
+                       float(confidence)), ""

@@ -1,0 +1,246 @@
+"""Node ``target_follower``: follows the detector's target (thesis 2.4, 5.3).
+
+Subscribes ``target`` (target_follower/Target, the detector's frames), ``scan``
+(sensor_msgs/LaserScan; its mount from TF ``~base_frame`` -> the scan's frame) and ``odom``
+(nav_msgs/Odometry, the base's pose). Publishes ``cmd_vel`` (geometry_msgs/Twist; launch
+files remap it, e.g. to ``follower/cmd_vel`` in front of a mux), ``~state``
+(std_msgs/String, latched, on change: following / searching / lost / blocked / stale /
+disabled) and ``~followed`` (geometry_msgs/PointStamped, the tracked target predicted to
+now, in the odometry frame). Service ``~enable`` (std_srvs/SetBool; ``~start_enabled``).
+
+Callbacks only store the newest input; a timer at ``~rate_hz`` runs the tracker
+(target_follower.tracker: which detection is the followed target, in odom), the safety
+sector and the control law (target_follower.follower) and publishes. Commands: every cycle
+while following, searching, blocked or stale (zero when the target or the scan is stale);
+one zero when the robot stops (lost) or is disabled, then nothing, so that cmd_vel is free
+for others. Parameters: ``target_follower.following.TargetFollowerParams`` (package README).
+"""
+import threading
+
+import numpy as np
+import rospy
+import tf2_ros
+from geometry_msgs.msg import PointStamped, Twist
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import String
+from std_srvs.srv import SetBool, SetBoolResponse
+
+from ascc_common.params import from_params
+from ascc_common.pose2d import yaw_of
+from ascc_navigation.laser import LaserMount
+from ascc_navigation.mapper import ScanInput, check_scan
+from target_follower.follower import (
+    ACTIVE_STATES,
+    DISABLED,
+    Follower,
+    SafetySector,
+)
+from target_follower.following import OdomHistory, TargetFollowerParams, observation_from_detection
+from target_follower.msg import Target
+from target_follower.tracker import Tracker
+
+WARN_PERIOD_S = 5.0  # throttle period of repeated warnings [s]
+
+
+class TargetFollowerNode:
+    def __init__(self):
+        p = from_params(TargetFollowerParams, rospy.get_param, "~")
+        self.p = p
+        self.period = 1.0 / p.rate_hz  # [s]
+        self.follower = Follower(p.follower)
+        self.tracker = Tracker(p.tracker)
+        self.odom = OdomHistory(p.odom_history_s)
+        self.lock = threading.Lock()
+        self.enabled = p.start_enabled
+        self.target_msg = None  # newest Target, not yet given to the tracker
+        self.target_stamp = None  # [s] of the newest Target message
+        self.scan_msg = None  # newest scan, not yet checked
+        self.scan_stamp = None  # [s] of the newest usable scan
+        self.blocked, self.blocked_reason = True, "no scan yet"
+        self.sectors = {}  # (frame, beams, angle_min, increment) -> SafetySector
+        self.odom_frame = "odom"
+        self.state = None
+        self.last_now = None
+
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
+        self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
+        self.point_pub = rospy.Publisher("~followed", PointStamped, queue_size=1)
+        rospy.Subscriber("target", Target, self.on_target, queue_size=1)
+        rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
+        rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=10)
+        rospy.Service("~enable", SetBool, self.on_enable)
+        if not self.enabled:
+            self._set_state(DISABLED, "~start_enabled is false")
+        self.timer = rospy.Timer(rospy.Duration(self.period), self.on_timer, reset=True)
+        rospy.on_shutdown(self.stop_robot)
+
+    # -- callbacks: store the newest input -----------------------------------------------
+    def on_target(self, msg):
+        with self.lock:
+            self.target_msg = (msg, rospy.Time.now())
+
+    def on_scan(self, msg):
+        with self.lock:
+            self.scan_msg = msg
+
+    def on_odom(self, msg):
+        p = msg.pose.pose
+        pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+        if not np.all(np.isfinite(pose)):
+            rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: odometry pose with "
+                                   "NaN/inf %s ignored" % (pose,))
+            return
+        with self.lock:
+            self.odom.add(msg.header.stamp.to_sec(), pose)
+            self.odom_frame = msg.header.frame_id or self.odom_frame
+
+    def on_enable(self, req):
+        with self.lock:
+            if req.data and not self.enabled:
+                self._reset()
+            elif not req.data and self.enabled:
+                self._send(0.0, 0.0)  # under the lock: no command of the timer after it
+                self._set_state(DISABLED, "~enable false")
+            self.enabled = bool(req.data)
+        return SetBoolResponse(True, "enabled" if req.data else "disabled")
+
+    # -- the control loop ----------------------------------------------------------------
+    def on_timer(self, _event):
+        with self.lock:
+            now = rospy.Time.now()
+            dt = self._dt(now)
+            if not self.enabled:
+                return
+            t = now.to_sec()
+            self._take_target()
+            self._take_scan(now)
+            pose = self.odom.newest() or (0.0, 0.0, 0.0)
+            aim = self.tracker.aim(t, pose)
+            cmd = self.follower.step(t, dt, self.target_stamp, aim, self.scan_stamp,
+                                     self.blocked, self.blocked_reason)
+            if cmd.state in ACTIVE_STATES or cmd.state != self.state:
+                self._send(cmd.v, cmd.w)
+            self._set_state(cmd.state, cmd.reason)
+            if self.tracker.track is not None:
+                self._publish_point(now, self.tracker.track.predicted(t))
+
+    def _dt(self, now):
+        if self.last_now is not None and now < self.last_now:
+            rospy.logwarn("target_follower: time went back by %.2f s (bag loop or restarted "
+                          "clock); forgetting the target, odometry and TF"
+                          % (self.last_now - now).to_sec())
+            self.tf_buffer.clear()
+            self._reset()
+        dt = self.period if self.last_now is None else (now - self.last_now).to_sec()
+        self.last_now = now
+        return float(np.clip(dt, 0.0, 2.0 * self.period))
+
+    def _reset(self):
+        self.follower.reset()
+        self.tracker.reset()
+        self.odom.clear()
+        self.target_msg = None
+        self.target_stamp = self.scan_stamp = None
+        self.sectors.clear()
+        self.state = None
+
+    def _take_target(self):
+        """Give the newest Target message to the tracker (bad ones warned and dropped)."""
+        if self.target_msg is None:
+            return
+        (msg, received), self.target_msg = self.target_msg, None
+        frame = msg.header.frame_id
+        if frame and frame.lstrip("/") != self.p.base_frame:
+            rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: Target in frame '%s', "
+                                   "expected '%s'; ignored" % (frame, self.p.base_frame))
+            return
+        stamp = msg.header.stamp
+        if stamp.is_zero():
+            rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: Target without a "
+                                   "stamp; taking its arrival time")
+            stamp = received
+        observations = []
+        for d in msg.detections:
+            obs, problem = observation_from_detection(d)
+            if obs is None:
+                rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: bad detection "
+                                       "ignored: %s" % problem)
+            else:
+                observations.append(obs)
+        t = stamp.to_sec()
+        pose = self.odom.pose_at(t)
+        if pose is None:
+            rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: no odometry on %s yet; "
+                                   "tracking as if the robot stood still"
+                                   % rospy.resolve_name("odom"))
+            pose = (0.0, 0.0, 0.0)
+        self.tracker.update(t, pose, observations)
+        self.target_stamp = t if self.target_stamp is None else max(self.target_stamp, t)
+
+    def _take_scan(self, now):
+        """Check the newest scan against the safety sector; an unusable one is warned about
+        and not counted as fresh (so the robot stops when no usable scan is recent)."""
+        msg, self.scan_msg = self.scan_msg, None
+        if msg is None:
+            return
+        scan = ScanInput(msg.header.stamp.to_sec(), msg.ranges, msg.angle_min,
+                         msg.angle_increment, msg.range_min, msg.range_max)
+        problem = check_scan(scan)
+        sector = None if problem else self._sector(msg)
+        if sector is None:
+            if problem:
+                rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: scan unusable: %s"
+                                       % problem)
+            return
+        self.blocked, self.blocked_reason = sector.check(scan.ranges, scan.range_min,
+                                                         scan.range_max)
+        self.scan_stamp = scan.stamp
+
+    def _sector(self, msg):
+        """The safety sector of this scan's layout and mount (cached), None if the mount is
+        unknown (warned)."""
+        key = (msg.header.frame_id, len(msg.ranges), msg.angle_min, msg.angle_increment)
+        if key not in self.sectors:
+            try:
+                t = self.tf_buffer.lookup_transform(self.p.base_frame, msg.header.frame_id,
+                                                    rospy.Time(0), rospy.Duration(0.05))
+                tr, q = t.transform.translation, t.transform.rotation
+                mount = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z, q.w)
+            except (tf2_ros.TransformException, ValueError) as e:
+                rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: scan frame '%s' "
+                                       "unusable: %s" % (msg.header.frame_id, e))
+                return None
+            angles = mount.beam_angles(len(msg.ranges), msg.angle_min, msg.angle_increment)
+            self.sectors[key] = SafetySector(self.p.follower, angles, (mount.x, mount.y))
+        return self.sectors[key]
+
+    # -- outputs --------------------------------------------------------------------------
+    def _set_state(self, state, reason):
+        if state != self.state:
+            rospy.loginfo("target_follower: %s%s", state, " (%s)" % reason if reason else "")
+            self.state_pub.publish(String(data=state))
+            self.state = state
+
+    def _publish_point(self, now, xy):
+        msg = PointStamped()
+        msg.header.stamp = now
+        msg.header.frame_id = self.odom_frame if self.odom.newest() else self.p.base_frame
+        msg.point.x, msg.point.y = float(xy[0]), float(xy[1])
+        self.point_pub.publish(msg)
+
+    def _send(self, v, w):
+        cmd = Twist()
+        cmd.linear.x, cmd.angular.z = v, w
+        self.cmd_pub.publish(cmd)
+
+    def stop_robot(self):
+        self._send(0.0, 0.0)
+
+
+def main():
+    rospy.init_node("target_follower")
+    TargetFollowerNode()
+    rospy.spin()
