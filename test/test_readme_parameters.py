@@ -25,6 +25,7 @@ from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
 from target_follower.camera_driver import Q24CameraParams
+from target_follower.following import TargetFollowerParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -36,7 +37,7 @@ TABLES = {
     "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
                                                  DriveSquareParams],
-    "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams],
+    "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, TargetFollowerParams],
 }
 
 
