@@ -133,33 +133,12 @@ class FakeRobot:
         return d
 
 
-class Commands:
-    """Every cmd_vel of the node: (wall time, v, w)."""
-
-    def __init__(self):
-        self.all = []
-        self.lock = threading.Lock()
-        self.sub = rospy.Subscriber("cmd_vel", Twist, self._cb, queue_size=100)
-
-    def _cb(self, msg):
-        with self.lock:
-            self.all.append((time.monotonic(), msg.linear.x, msg.angular.z))
-
-    def count(self):
-        with self.lock:
-            return len(self.all)
-
-    def since(self, index):
-        with self.lock:
-            return list(self.all[index:])
-
-
 class FollowerTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("follower_test")
         cls.log = RosoutWatcher()
-        cls.cmds = Commands()
+        cls.cmds = Latest("cmd_vel", Twist, keep_all=True)  # every command, in order
         cls.state = Latest(NODE + "/state", String)
         rospy.wait_for_service(NODE + "/enable", timeout=60.0)
         cls.enable = rospy.ServiceProxy(NODE + "/enable", SetBool)
@@ -183,19 +162,43 @@ class FollowerTest(unittest.TestCase):
         wait_for(lambda: self.state.msg is not None and self.state.msg.data == state,
                  timeout_s, "state %s (now %s)" % (state, self.state.msg))
 
+    def since(self, index):
+        """(v, w) of every command from ``index`` on."""
+        return [(c.linear.x, c.angular.z) for c in self.cmds.all[index:]]
+
     def wait_cmd(self, pred, what, timeout_s=10.0):
-        """The first command from now on that satisfies ``pred(v, w)``; its index."""
-        start = self.cmds.count()
+        """The first command from now on that satisfies ``pred(v, w)``: its index (the
+        wall time it was seen at: ``self.seen_at``)."""
+        start = self.cmds.count
         found = []
 
         def check():
-            for k, (_, v, w) in enumerate(self.cmds.since(start)):
+            for k, (v, w) in enumerate(self.since(start)):
                 if pred(v, w):
                     found.append(start + k)
                     return True
             return False
         wait_for(check, timeout_s, what)
+        self.seen_at = time.monotonic()
         return found[0]
+
+    def wait_stale_stop(self, what, flag, last_sent, timeout_s):
+        """Drive, stop sending one input (``flag`` of the fake robot), wait for the zero
+        command and the stale state: it came ``timeout_s`` after the input's last message
+        (within two control periods and the polling; at most 1 s late), and the node goes
+        on commanding zero."""
+        self.drive_far()
+        setattr(self.robot, flag, False)
+        k = self.wait_cmd(lambda v, w: v == 0.0 and w == 0.0, "a stop on a stale " + what)
+        late = self.seen_at - getattr(self.robot, last_sent)
+        self.assertGreater(late, timeout_s - 2 * PERIOD_S)
+        self.assertLess(late, timeout_s + 1.0)
+        self.wait_state("stale")
+        wait_for(lambda: len(self.since(k)) >= 5, 5.0, "zeros while stale")
+        self.assertTrue(all(v == 0.0 and w == 0.0 for v, w in self.since(k)))
+        setattr(self.robot, flag, True)
+        self.wait_cmd(lambda v, w: v > 0.0, "driving again with fresh input")
+        self.wait_state("following")
 
     def drive_far(self):
         self.robot.target = (0.0, 3.0)
@@ -207,7 +210,7 @@ class FollowerTest(unittest.TestCase):
         k = self.wait_cmd(lambda v, w: w >= 0.9 * min(P.k_angular_per_s * math.radians(30),
                                                       P.max_angular_radps),
                           "a left turn toward +30 deg")
-        for _, v, w in self.cmds.since(k)[:5]:
+        for v, w in self.since(k)[:5]:
             self.assertGreater(w, 0.0)
             self.assertEqual(v, 0.0)  # in the band: no linear speed
 
@@ -215,46 +218,28 @@ class FollowerTest(unittest.TestCase):
         self.robot.target = (0.0, 3.0)
         self.wait_state("following")
         k = self.wait_cmd(lambda v, w: v >= 0.99 * P.max_linear_mps, "full speed ahead")
-        for _, _v, w in self.cmds.since(k)[:3]:
+        for _v, w in self.since(k)[:3]:
             self.assertAlmostEqual(w, 0.0, places=6)
         self.robot.walk_to(P.distance_m + 0.05, 1.0)  # toward the robot
         k = self.wait_cmd(lambda v, w: v == 0.0, "a stop in the band")
-        wait_for(lambda: len(self.cmds.since(k)) >= 5, 5.0, "five commands in the band")
-        stops = self.cmds.since(k)[:5]
-        self.assertTrue(all(v == 0.0 and abs(w) < 1e-6 for _, v, w in stops), stops)
+        wait_for(lambda: len(self.since(k)) >= 5, 5.0, "five commands in the band")
+        stops = self.since(k)[:5]
+        self.assertTrue(all(v == 0.0 and abs(w) < 1e-6 for v, w in stops), stops)
         self.assertEqual(self.state.msg.data, "following")
 
     def test_3_stale_target_stops(self):
-        self.drive_far()
-        self.robot.send_target = False
-        k = self.wait_cmd(lambda v, w: v == 0.0 and w == 0.0, "a stop on a stale target")
-        t_stop, last = self.cmds.since(k)[0][0], self.robot.last_target_wall
-        self.assertGreater(t_stop - last, P.target_timeout_s - 2 * PERIOD_S)
-        self.assertLess(t_stop - last, P.target_timeout_s + 1.0)
-        self.wait_state("stale")
-        wait_for(lambda: len(self.cmds.since(k)) >= 5, 5.0, "zeros while stale")
-        self.assertTrue(all(v == 0.0 and w == 0.0 for _, v, w in self.cmds.since(k)))
-        self.robot.send_target = True
-        self.wait_state("following")
+        self.wait_stale_stop("target", "send_target", "last_target_wall", P.target_timeout_s)
 
     def test_4_stale_scan_stops(self):
-        self.drive_far()
-        self.robot.send_scan = False
-        k = self.wait_cmd(lambda v, w: v == 0.0 and w == 0.0, "a stop on a stale scan")
-        t_stop, last = self.cmds.since(k)[0][0], self.robot.last_scan_wall
-        self.assertGreater(t_stop - last, P.scan_timeout_s - 2 * PERIOD_S)
-        self.assertLess(t_stop - last, P.scan_timeout_s + 1.0)
-        self.wait_state("stale")
-        self.robot.send_scan = True
-        self.wait_cmd(lambda v, w: v > 0.0, "driving again with fresh scans")
+        self.wait_stale_stop("scan", "send_scan", "last_scan_wall", P.scan_timeout_s)
 
     def test_5_obstacle_in_the_path_stops_one_beside_does_not(self):
         self.drive_far()
         self.robot.posts = [(0.4, 0.0)]
         k = self.wait_cmd(lambda v, w: v == 0.0, "a stop for the post ahead")
         self.wait_state("blocked")
-        wait_for(lambda: len(self.cmds.since(k)) >= 5, 5.0, "commands while blocked")
-        self.assertTrue(all(v == 0.0 for _, v, _w in self.cmds.since(k)))
+        wait_for(lambda: len(self.since(k)) >= 5, 5.0, "commands while blocked")
+        self.assertTrue(all(v == 0.0 for v, _w in self.since(k)))
         self.robot.posts = [(0.4, 0.45), (0.0, -0.35)]
         self.wait_cmd(lambda v, w: v > 0.0, "driving past posts beside the path")
         self.wait_state("following")
@@ -272,17 +257,15 @@ class FollowerTest(unittest.TestCase):
 
     def test_7_disabled_sends_one_zero_then_nothing(self):
         self.drive_far()
-        start = self.cmds.count()
+        start = self.cmds.count
         self.assertTrue(self.enable(False).success)
         self.wait_state("disabled")
-        wait_for(lambda: self.cmds.count() > start, 5.0, "the zero command")
+        wait_for(lambda: self.cmds.count > start, 5.0, "the zero command")
         window = 10 * PERIOD_S
         time.sleep(window)  # an observation window: nothing may come in it
-        after = self.cmds.since(start)
-        zeros = [c for c in after if c[1] == 0.0 and c[2] == 0.0]
-        self.assertEqual(after[-1][1:], (0.0, 0.0))
-        self.assertEqual(len(zeros), 1, after)
-        self.assertTrue(all(c[1] != 0.0 or c[2] != 0.0 for c in after[:-1]), after)
+        after = self.since(start)  # driving commands sent before the call, then one zero
+        self.assertEqual(after[-1], (0.0, 0.0))
+        self.assertEqual(after.count((0.0, 0.0)), 1, after)
         self.assertTrue(self.enable(True).success)
         self.wait_cmd(lambda v, w: v > 0.0, "driving again once enabled")
 
