@@ -26,6 +26,9 @@ from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
 from target_follower.camera_driver import Q24CameraParams
 from target_follower.following import TargetFollowerParams
+from target_follower.color_detector import ColorParams
+from target_follower.logo_detector import LogoParams
+from target_follower.ros.target_detector_node import DetectorNodeParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -37,7 +40,8 @@ TABLES = {
     "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
                                                  DriveSquareParams],
-    "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, TargetFollowerParams],
+    "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,
+                                                LogoParams, TargetFollowerParams],
 }
 
 

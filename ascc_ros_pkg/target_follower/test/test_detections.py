@@ -1,0 +1,82 @@
+"""Geometry: blob -> bearing, range (laser or size) and position in base_link."""
+import math
+
+import numpy as np
+import pytest
+
+from ascc_common.camera_model import PanoramicCamera
+from target_follower import synthetic as S
+from target_follower.cli import make_detector
+from target_follower.detections import RANGE_LASER, RANGE_NONE, RANGE_SIZE, SHAPES, Scan, locate
+
+CAM = PanoramicCamera()
+
+
+def scan_with_circle(centre, radius, laser_pose=(0.1, 0.0, 0.0), wall_m=4.0):
+    """A 360-degree scan from ``laser_pose`` (base_link) seeing a circle (base_link)."""
+    a = -math.pi + 0.005 * np.arange(1257)
+    lx, ly, lyaw = laser_pose
+    d = np.stack([np.cos(a + lyaw), np.sin(a + lyaw)], axis=1)
+    c = np.asarray(centre) - [lx, ly]
+    along = d @ c
+    perp2 = c @ c - along ** 2
+    hit = (along > 0) & (perp2 < radius ** 2)
+    r = np.full(a.size, wall_m)
+    r[hit] = along[hit] - np.sqrt(radius ** 2 - perp2[hit])
+    return Scan(r, float(a[0]), 0.005, 0.02, 5.6, laser_pose)
+
+
+def cone_blob(bearing, range_m):
+    img = np.full((CAM.height_px, CAM.width_px, 3), 110, np.uint8)
+    S.draw_cone(img, CAM, bearing, range_m)
+    (blob,) = make_detector("cone", strip_height_px=CAM.strip_height_px).detect(img)[:1]
+    return blob
+
+
+@pytest.mark.parametrize("bearing", [0.3, -1.0, 2.6, -2.9])
+def test_cone_range_from_floor_contact(bearing):
+    loc = locate(CAM, cone_blob(bearing, 2.0), SHAPES["cone"])
+    assert loc.range_source == RANGE_SIZE
+    assert abs(math.degrees(math.remainder(loc.bearing_rad - bearing, 2 * math.pi))) < 2.0
+    assert abs(loc.range_m - 2.0) < 0.2
+    assert math.hypot(loc.x_m - 2 * math.cos(bearing), loc.y_m - 2 * math.sin(bearing)) < 0.2
+
+
+def test_laser_range_when_a_beam_hits_the_target():
+    b, r = 0.5, 1.6
+    centre = (r * math.cos(b), r * math.sin(b))
+    scan = scan_with_circle(centre, 0.1, laser_pose=(0.1, 0.05, 0.3))
+    loc = locate(CAM, cone_blob(b, r), SHAPES["cone"], scan)
+    assert loc.range_source == RANGE_LASER
+    assert abs(loc.range_m - (r - 0.1)) < 0.05
+
+
+def test_laser_ignored_when_it_hits_something_else():
+    """A wall 4 m away behind the cone's bearing, nothing at the cone: size range."""
+    scan = scan_with_circle((9.0, 9.0), 0.1)
+    loc = locate(CAM, cone_blob(0.5, 1.6), SHAPES["cone"], scan)
+    assert loc.range_source == RANGE_SIZE
+
+
+def test_nan_and_inf_beams_ignored():
+    b, r = -0.7, 1.3
+    scan = scan_with_circle((r * math.cos(b), r * math.sin(b)), 0.1)
+    scan.ranges[::3] = np.nan
+    scan.ranges[1::3] = np.inf
+    loc = locate(CAM, cone_blob(b, r), SHAPES["cone"], scan)
+    assert loc.range_source == RANGE_LASER and math.isfinite(loc.range_m)
+
+
+def test_shirt_range_from_extent():
+    img = np.full((CAM.height_px, CAM.width_px, 3), 110, np.uint8)
+    S.draw_person(img, CAM, 1.0, 2.5)
+    blob = make_detector("shirt", strip_height_px=CAM.strip_height_px).detect(img)[0]
+    loc = locate(CAM, blob, SHAPES["shirt"])
+    assert loc.range_source == RANGE_SIZE and abs(loc.range_m - 2.5) < 0.3
+
+
+def test_no_range_above_the_horizon():
+    blob = cone_blob(0.2, 2.0)
+    blob.bbox = (blob.bbox[0], 10, blob.bbox[2], 20)  # bottom edge above the horizon
+    loc = locate(CAM, blob, SHAPES["cone"])
+    assert loc.range_source == RANGE_NONE and math.isnan(loc.range_m)
