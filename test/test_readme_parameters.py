@@ -25,8 +25,8 @@ from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
 from target_follower.camera_driver import Q24CameraParams
-from target_follower.following import TargetFollowerParams
 from target_follower.color_detector import ColorParams
+from target_follower.following import TargetFollowerParams
 from target_follower.logo_detector import LogoParams
 from target_follower.ros.target_detector_node import DetectorNodeParams
 
