@@ -67,6 +67,7 @@ class WorldObject(NamedTuple):
     solid: str  # outline | legs | none: what the laser and the bumper meet
     circles: np.ndarray  # (M, 3) solid circles (x, y, r) [m] ray-cast analytically
     laser_dropout_prob: float  # extra dropout probability of returns from this object
+    center_height_m: float = 0.0  # posters: height of the sheet's centre above the floor
 
 
 class Waypoint(NamedTuple):
@@ -107,7 +108,7 @@ _OBJECT_KEYS = {
     "cone": {"name", "type", "pose", "radius_m", "height_m", "color", "solid",
              "laser_dropout_prob"},
     "poster": {"name", "type", "pose", "logo", "width_m", "height_m", "color", "solid",
-               "laser_dropout_prob", "elevation_m"},
+               "laser_dropout_prob", "center_height_m"},
     "furniture": {"name", "type", "kind", "pose", "size_m", "footprint_m", "height_m",
                   "color", "solid", "leg_radius_m", "laser_dropout_prob"},
     "landmark": {"name", "type", "kind", "pose", "height_m", "color", "solid",
@@ -339,7 +340,7 @@ def _parse_object(ctx: _Ctx, d: Any, f: str) -> WorldObject:
     height = ctx.number(d, "height_m", f, default=defaults["height_m"], lo=0.0)
     color = ctx.color(d, f, defaults["color"])
     dropout = ctx.number(d, "laser_dropout_prob", f, default=0.0, lo=0.0, hi=1.0)
-    kind, radius = "", 0.0
+    kind, radius, center = "", 0.0, 0.0
     footprint = np.zeros((0, 2))
     circles = np.zeros((0, 3))
     if otype == "cone":
@@ -357,6 +358,7 @@ def _parse_object(ctx: _Ctx, d: Any, f: str) -> WorldObject:
                                       [-0.02, -width / 2], [0.0, -width / 2]]), pose)
         if solid == "legs":
             raise ctx.fail(f + ".solid", "a poster cannot have legs")
+        center = ctx.number(d, "center_height_m", f, default=0.9, lo=height / 2.0)
     elif otype == "furniture":
         kind, footprint, circles = _parse_furniture(ctx, d, f, pose, solid)
     else:
@@ -364,7 +366,7 @@ def _parse_object(ctx: _Ctx, d: Any, f: str) -> WorldObject:
         if solid != "none":
             raise ctx.fail(f + ".solid", "a landmark is a point; it can only be 'none'")
     return WorldObject(name, otype, kind, pose, footprint, radius, height, color, solid,
-                       circles, dropout)
+                       circles, dropout, center)
 
 
 def _parse_route(ctx: _Ctx, route: Any, f: str) -> Tuple[Waypoint, ...]:
