@@ -36,7 +36,7 @@ def at(bearing_deg, range_m):
 
 def orange_mask(img):
     hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
-    return cv2.inRange(hsv, (5, 150, 100), (22, 255, 255)) > 0
+    return cv2.inRange(hsv, (5, 200, 150), (22, 255, 255)) > 0
 
 
 def centroid_bearings(cam, mask):

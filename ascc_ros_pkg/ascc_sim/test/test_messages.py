@@ -89,3 +89,35 @@ def test_check_world_cli(tmp_path):
     assert len(lines) == 1 and "Traceback" not in out.stdout + out.stderr
     assert lines[0].startswith("ERROR %s: robots[0].pose: " % bad)
     assert "overlaps a wall" in lines[0]
+
+
+def test_camera_messages_round_trip():
+    from io import BytesIO
+
+    import cv2
+    from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+
+    from ascc_common.camera_model import PanoramicCamera
+
+    cam = PanoramicCamera()
+    img = np.zeros((768, 1024, 3), np.uint8)
+    img[10, 20] = (1, 2, 3)
+    msgs = [M.image_bgr8(3.0, "robotA/camera", img),
+            M.compressed_jpeg(3.0, "robotA/camera", cv2.imencode(".jpg", img)[1].tobytes()),
+            M.camera_info(3.0, "robotA/camera", cam)]
+    out = []
+    for msg, cls in zip(msgs, (Image, CompressedImage, CameraInfo)):
+        buf = BytesIO()
+        msg.serialize(buf)
+        out.append(cls().deserialize(buf.getvalue()))
+    image, jpeg, info = out
+    assert (image.height, image.width, image.encoding, image.step) == (768, 1024, "bgr8", 3072)
+    back = np.frombuffer(image.data, np.uint8).reshape(768, 1024, 3)
+    assert tuple(back[10, 20]) == (1, 2, 3)
+    assert jpeg.format == "bgr8; jpeg compressed bgr8"
+    assert cv2.imdecode(np.frombuffer(jpeg.data, np.uint8), cv2.IMREAD_COLOR).shape == img.shape
+    assert (info.width, info.height, info.distortion_model) == (1024, 768, "equirectangular")
+    # K maps bearing 0 / elevation 0 to the top strip's centre, f = px_per_rad
+    assert info.K[0] == pytest.approx(cam.px_per_rad) and info.K[4] == info.K[0]
+    assert (info.K[2], info.K[5]) == pytest.approx((512.0, 192.0))
+    assert all(m.header.frame_id == "robotA/camera" for m in out)

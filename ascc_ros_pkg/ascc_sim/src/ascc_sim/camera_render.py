@@ -28,13 +28,16 @@ from __future__ import annotations
 
 import math
 import zlib
+from dataclasses import dataclass
 from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
 
 from ascc_common.camera_model import PanoramicCamera
+from ascc_common.params import nested, param
 
+from .camera_effects import CameraEffectsParams
 from .grid import GridMap
 from .laser import RayCaster
 from .world import World, WorldObject
@@ -45,6 +48,31 @@ CEILING_BGR = np.array([222.0, 226.0, 228.0], dtype=np.float32)
 TROUSERS_BGR = np.array([70.0, 45.0, 40.0], dtype=np.float32)  # dark blue jeans
 SKIN_BGR = np.array([120.0, 155.0, 200.0], dtype=np.float32)
 HAIR_BGR = np.array([30.0, 35.0, 45.0], dtype=np.float32)
+
+
+@dataclass
+class SimCameraParams:
+    """The sim_camera node's parameters (private); ``~logo_textures`` (a dict) is read
+    beside them."""
+
+    world: Optional[str] = param(None, "path of the world YAML (required)")
+    robot: str = param("/", "namespace of the world's robot that carries the camera "
+                            "(/: the one without namespace)")
+    rate_hz: float = param(10.0, "[Hz, sim time] frame rate", gt=0.0)
+    publish_topics: bool = param(True, "publish the camera topics (false: only the "
+                                       "HTTP stream)")
+    http_port: int = param(-1, "MJPEG server port on 127.0.0.1; -1: off, 0: any free port",
+                           ge=-1)
+    http_path: str = param("/", "path of the MJPEG stream")
+    jpeg_quality: int = param(85, "JPEG quality (0-100)", ge=0, le=100)
+    seed: int = param(0, "seed of the sensor noise and drifts")
+    truth_timeout_s: float = param(1.0, "[s] no frame while the robot's true pose is older",
+                                   gt=0.0)
+    wall_height_m: float = param(2.5, "[m] height of the walls and the ceiling", gt=0.0)
+    max_range_m: float = param(30.0, "[m] walls farther (or none) are drawn at this range",
+                               gt=0.0)
+    camera: PanoramicCamera = nested(PanoramicCamera, "camera/")
+    effects: CameraEffectsParams = nested(CameraEffectsParams, "effects/")
 
 
 class Body(NamedTuple):

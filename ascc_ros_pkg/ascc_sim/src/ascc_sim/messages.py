@@ -18,10 +18,11 @@ from geometry_msgs.msg import (
 )
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, LaserScan
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.camera_model import PanoramicCamera
 from ascc_common.grid import grid_to_msg_data
 from ascc_common.pose2d import quaternion_from_yaw
 from ascc_sim.msg import SimObject, SimObjectArray
@@ -69,6 +70,51 @@ def laser_scan(t_s: float, frame_id: str, cfg: LaserConfig, ranges: np.ndarray
     msg.range_min = cfg.range_min_m
     msg.range_max = cfg.range_max_m
     msg.ranges = np.asarray(ranges, dtype=np.float32).tolist()
+    return msg
+
+
+def camera_frame(robot: RobotSpec) -> str:
+    """The camera's frame id of a robot: ``<ns>/camera``."""
+    return robot.frame_prefix + "camera"
+
+
+def image_bgr8(t_s: float, frame_id: str, img: np.ndarray) -> Image:
+    """A sensor_msgs/Image of a BGR uint8 array (height, width, 3)."""
+    msg = Image(header=Header(stamp=stamp(t_s), frame_id=frame_id))
+    msg.height, msg.width = int(img.shape[0]), int(img.shape[1])
+    msg.encoding = "bgr8"
+    msg.is_bigendian = 0
+    msg.step = msg.width * 3
+    msg.data = np.ascontiguousarray(img, dtype=np.uint8).tobytes()
+    return msg
+
+
+JPEG_FORMAT = "bgr8; jpeg compressed bgr8"  # image_transport's compressed plugin (Noetic)
+
+
+def compressed_jpeg(t_s: float, frame_id: str, jpeg: bytes) -> CompressedImage:
+    """A sensor_msgs/CompressedImage of JPEG bytes of a bgr8 image."""
+    return CompressedImage(header=Header(stamp=stamp(t_s), frame_id=frame_id),
+                           format=JPEG_FORMAT, data=bytes(jpeg))
+
+
+def camera_info(t_s: float, frame_id: str, cam: PanoramicCamera) -> CameraInfo:
+    """The panorama as a CameraInfo: ``distortion_model`` "equirectangular" (equal angles
+    per pixel, no D coefficients), ``K`` = [f, 0, cx; 0, f, cy; 0, 0, 1] with f =
+    ``px_per_rad`` and (cx, cy) the pixel of bearing 0 and elevation ``pitch_rad`` in the
+    top strip; in the double panorama the bottom strip (rows ``height/2`` on) continues
+    the clockwise sweep over the rear half (``ascc_common.camera_model``). P = [K | 0],
+    R = identity."""
+    f = cam.px_per_rad
+    u0, _, _ = cam.ray_to_pixel(0.0, cam.pitch_rad)
+    cx, cy = float(u0), cam.strip_height_px / 2.0
+    msg = CameraInfo(header=Header(stamp=stamp(t_s), frame_id=frame_id))
+    msg.height, msg.width = cam.height_px, cam.width_px
+    msg.distortion_model = "equirectangular"
+    msg.D = []
+    msg.K = [f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0]
+    msg.R = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    msg.P = [f, 0.0, cx, 0.0, 0.0, f, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
     return msg
 
 
