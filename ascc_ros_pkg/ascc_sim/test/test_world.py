@@ -9,11 +9,11 @@ import pytest
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_sim.grid import GridMap
-from ascc_sim.world import WorldError, load_map, load_world
+from ascc_sim.world import WorldError, circle_overlaps, load_map, load_world
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WORLDS = os.path.join(PKG, "worlds")
-SHIPPED = ["office", "corridor", "lab", "apartment", "three_robots"]
+SHIPPED = ["office", "office_follow", "corridor", "lab", "apartment", "three_robots"]
 
 
 def write_map(tmp_path, pixels, name="m", **fields):
@@ -261,3 +261,61 @@ def test_grid_map_takes_a_matching_axis_aligned_geometry():
         GridMap(occ, GridInfo(0.1, 3, 2, origin_yaw=0.5))
     with pytest.raises(ValueError, match="does not match"):
         GridMap(occ, GridInfo(0.1, 2, 3))
+
+
+def _distance_to_polygon(x, y, poly):
+    a = np.asarray(poly, dtype=float)
+    b = np.roll(a, -1, axis=0)
+    ab = b - a
+    t = np.clip(((x - a[:, 0]) * ab[:, 0] + (y - a[:, 1]) * ab[:, 1])
+                / np.maximum((ab ** 2).sum(axis=1), 1e-12), 0.0, 1.0)
+    return float(np.hypot(a[:, 0] + t * ab[:, 0] - x, a[:, 1] + t * ab[:, 1] - y).min())
+
+
+def test_office_follow_route():
+    """The person to follow (thesis 5.3): orange, 0.3 m/s, >= 30 m with corners and
+    straight legs of several metres, starting about 1.5 m in front of the robot, and
+    keeping >= 0.5 m from walls and every piece of furniture (legs tables included)."""
+    w = load_world(os.path.join(WORLDS, "office_follow.yaml"))
+    office = load_world(os.path.join(WORLDS, "office.yaml"))
+    assert w.map_path == office.map_path
+    (p,) = w.people
+    assert p.speed_mps == pytest.approx(0.3) and p.color == (1.0, 0.45, 0.0)
+    pts = np.array([[wp.x, wp.y] for wp in p.route])
+    legs = np.diff(pts, axis=0)
+    lengths = np.hypot(legs[:, 0], legs[:, 1])
+    assert lengths.sum() >= 30.0
+    headings = np.arctan2(legs[:, 1], legs[:, 0])
+    turns = np.abs(np.remainder(np.diff(headings) + math.pi, 2 * math.pi) - math.pi)
+    assert np.count_nonzero(turns > math.radians(60)) >= 2
+    assert np.count_nonzero(lengths >= 3.0) >= 4
+    r = w.robots[0].pose
+    ahead = (pts[0, 0] - r.x) * math.cos(r.yaw) + (pts[0, 1] - r.y) * math.sin(r.yaw)
+    side = -(pts[0, 0] - r.x) * math.sin(r.yaw) + (pts[0, 1] - r.y) * math.cos(r.yaw)
+    assert 1.2 <= ahead <= 1.8 and abs(side) < 0.2
+    furniture = [o.footprint for o in w.objects if len(o.footprint) >= 3]
+    for a, b, n in zip(pts[:-1], pts[1:], lengths):
+        for t in np.linspace(0.0, 1.0, int(n / 0.05) + 2):
+            x, y = a + t * (b - a)
+            assert w.grid.disc_contact(x, y, 0.5 - 1e-6) is None, (x, y)
+            assert not circle_overlaps(x, y, 0.5 - 1e-6, w.circles), (x, y)
+            assert min(_distance_to_polygon(x, y, f) for f in furniture) >= 0.5 - 1e-6
+
+
+def test_poster_center_height(tmp_path):
+    room_map(tmp_path)
+    w = load_world(write_world(tmp_path, """
+map: m.yaml
+objects:
+  - {name: p, type: poster, logo: ascc_logo, pose: [0.0, 1.85, -1.5708]}
+  - {name: q, type: poster, logo: ascc_logo, pose: [0.5, 1.85, -1.5708], height_m: 0.4,
+     center_height_m: 1.5}
+"""))
+    assert [o.center_height_m for o in w.objects] == [0.9, 1.5]  # 0.8 m default: 0.5-1.3 m
+    with pytest.raises(WorldError) as info:
+        load_world(write_world(tmp_path, """
+map: m.yaml
+objects:
+  - {name: p, type: poster, logo: x, pose: [0.0, 1.85, -1.5708], center_height_m: 0.3}
+""", name="bad.yaml"))
+    assert info.value.field == "objects[0].center_height_m"
