@@ -19,6 +19,7 @@ from ascc_eval.follow_eval import FollowMonitorParams
 from ascc_navigation.mapper import SlamNodeParams
 from ascc_navigation.mcl import MclNodeParams
 from ascc_navigation.navigation import MoveBaseParams
+from ascc_sim.camera_render import SimCameraParams
 from ascc_sim.runner import SimulatorParams
 from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
@@ -36,7 +37,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TABLES = {
     "ascc_ros_pkg/ascc_navigation/README.md": [SlamNodeParams, MclNodeParams, MoveBaseParams],
     "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
-    "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams],
+    "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams, SimCameraParams],
     "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
                                                  DriveSquareParams],

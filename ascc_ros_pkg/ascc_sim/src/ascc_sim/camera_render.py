@@ -271,7 +271,7 @@ class CameraRenderer:
         floor_or_ceil = np.where(t[:, :, None] > 0, self._ceil_rows[:, None, :],
                                  self._floor_rows[:, None, :])
         on_wall = (t <= top) & (t >= bot)
-        img = np.where(on_wall[:, :, None], wall, floor_or_ceil).astype(np.float32)
+        img = np.where(on_wall[:, :, None], wall, floor_or_ceil).astype(np.float32, copy=False)
         zbuf = np.broadcast_to(r, on_wall.shape).copy()
         return img, zbuf
 

@@ -8,7 +8,7 @@ A world YAML (see ``worlds/*.yaml`` and the package README for the full schema):
       - {name: asccbot, namespace: "", pose: [1.0, 2.0, 0.0]}
     objects:
       - {name: cone1, type: cone, pose: [3.0, 1.5]}
-      - {name: pete, type: poster, logo: osu_pete, pose: [5.0, 4.9, -1.5708]}
+      - {name: logo1, type: poster, logo: ascc_logo, pose: [5.0, 4.9, -1.5708]}
       - {name: desk1, type: furniture, kind: desk, pose: [2, 3, 0], size_m: [1.2, 0.6]}
       - {name: corner1, type: landmark, pose: [1.4, 3.3]}
     people:
