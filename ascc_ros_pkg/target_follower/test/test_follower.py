@@ -75,6 +75,45 @@ def test_drives_to_the_set_distance_and_stops_in_the_band():
     assert control_law(p, Aim(0.0, p.distance_m + 0.5))[0] > 0.0
 
 
+def test_feedforward_keeps_pace_with_a_walking_target_without_a_standing_lag():
+    p = FollowerParams()
+    walk = 0.3  # [m/s] the target walks straight away from the robot
+    for params in (p, FollowerParams(k_feedforward=0.0)):
+        f, r = Follower(params), params.distance_m
+        for k in range(600):  # 60 s
+            cmd = f.step(k * DT, DT, k * DT, Aim(0.0, r, range_rate_mps=walk), k * DT, False)
+            r += (walk - cmd.v) * DT
+        if params is p:
+            assert abs(r - p.distance_m) <= p.distance_tolerance_m
+            assert cmd.v == pytest.approx(walk, abs=0.02)
+        else:  # a proportional law alone lags by walk / k_v, beyond the band
+            assert r - params.distance_m == pytest.approx(walk / params.k_linear_per_s,
+                                                          abs=0.02)
+    # a standing target's velocity noise does not make the robot creep inside the band
+    assert control_law(p, Aim(0.0, p.distance_m, range_rate_mps=0.03))[0] == 0.0
+    # a target coming closer does not add a reverse speed
+    assert control_law(p, Aim(0.0, p.distance_m, range_rate_mps=-0.3))[0] == 0.0
+
+
+def test_a_searching_aim_drives_in_the_searching_state_until_the_search_times_out():
+    p = FollowerParams()
+    f = Follower(p)
+    cmd = f.step(0.0, DT, 0.0, Aim(0.0, 3.0), 0.0, False)
+    assert cmd.state == FOLLOWING
+    t = DT
+    while t < p.search_timeout_s - DT:
+        cmd = f.step(t, DT, t, Aim(0.1, 3.0, searching=True), t, False)
+        assert cmd.state == SEARCHING
+        t += DT
+    assert cmd.v > 0.0  # it drives to where the target was last seen
+    cmd = f.step(p.search_timeout_s + DT, DT, t, Aim(0.1, 3.0, searching=True), t, False)
+    assert cmd.state == LOST and cmd.v == 0.0
+    f.reset()
+    f.step(0.0, DT, 0.0, Aim(0.0, 3.0), 0.0, False)
+    cmd = f.step(DT, DT, DT, Aim(0.0, 3.0, searching=True), DT, True, "wall")
+    assert cmd.state == SEARCHING and cmd.v <= 0.0 and cmd.reason == "wall"
+
+
 def test_no_reversing_beyond_the_back_off_unless_allowed():
     p = FollowerParams()
     assert control_law(p, Aim(0.0, 0.3))[0] == pytest.approx(-p.backoff_mps)

@@ -138,3 +138,20 @@ def test_bad_detections_and_old_frames_are_ignored():
     assert track.pos == pytest.approx([2.0, 0.0]) and track.t_s == 1.0
     with pytest.raises(ParamError, match="kinds"):
         from_params(TrackerParams, {"kinds": "cone,ball"}.get)
+
+
+def test_aim_gives_the_target_speed_along_the_line_of_sight():
+    """A target walking straight away at 0.3 m/s, seen from a robot turned 90 deg: the aim's
+    range rate is +0.3 m/s (away); walking across, its velocity's share along the line of
+    sight (0.3 x / r)."""
+    for heading in (0.0, math.pi / 2):
+        trk = tracker(kinds="shirt")
+        robot = (0.0, 0.0, math.pi / 2)  # facing +y
+        for k in range(30):
+            t = k * DT
+            d = 0.3 * t
+            xy = (d * math.sin(heading), 2.0 + d * math.cos(heading))
+            trk.update(t, robot, [seen(robot, xy, kind="shirt")])
+        aim = trk.aim(t, robot)
+        expected = 0.3 * (xy[0] * math.sin(heading) + xy[1] * math.cos(heading)) / math.hypot(*xy)
+        assert aim.range_rate_mps == pytest.approx(expected, abs=0.05)

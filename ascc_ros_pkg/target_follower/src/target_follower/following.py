@@ -13,6 +13,7 @@ from ascc_common.pose2d import wrap_angle
 
 from .follower import FollowerParams
 from .tracker import KINDS, Observation, TrackerParams
+from .trail import TrailParams
 
 RANGE_NONE = 0  # target_follower/Detection's range_source values
 RANGE_LASER = 1
@@ -30,6 +31,7 @@ class TargetFollowerParams:
                                        "a camera frame's stamp", gt=0.0)
     follower: FollowerParams = nested(FollowerParams)
     tracker: TrackerParams = nested(TrackerParams)
+    trail: TrailParams = nested(TrailParams)
 
 
 class OdomHistory:

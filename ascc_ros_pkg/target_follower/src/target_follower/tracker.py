@@ -100,6 +100,8 @@ class Track:
     direction_rad: float  # odom direction from the robot at the last update
     area_px: float
     vel: np.ndarray = field(default_factory=lambda: np.zeros(2))  # [m/s]
+    seen: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))  # last measured
+    # position [m, odom] (unfiltered: what the trail records)
     updates: int = 1
 
     @property
@@ -153,7 +155,12 @@ class Tracker:
         if not t.has_position:
             return Aim(wrap_angle(t.direction_rad - pose[2]), math.nan, t.area_px)
         x, y = self.in_base(pose, t.predicted(now_s))
-        return Aim(math.atan2(y, x), math.hypot(x, y), t.area_px)
+        r = math.hypot(x, y)
+        rate = 0.0  # the target's velocity along the line of sight (positive: away)
+        if r > 1e-6:
+            vx, vy = self.in_base((0.0, 0.0, pose[2]), t.vel)
+            rate = (vx * x + vy * y) / r
+        return Aim(math.atan2(y, x), r, t.area_px, rate)
 
     # -- internals -----------------------------------------------------------------------
     @staticmethod
@@ -174,8 +181,10 @@ class Tracker:
         if not ok:
             return
         best = max(ok, key=lambda o: (o.confidence, np.nan_to_num(o.area_px, nan=0.0)))
-        self.track = Track(self.next_id, best.kind, stamp_s, self._in_odom(pose, best),
-                           wrap_angle(pose[2] + best.bearing_rad), best.area_px)
+        pos = self._in_odom(pose, best)
+        self.track = Track(self.next_id, best.kind, stamp_s, pos,
+                           wrap_angle(pose[2] + best.bearing_rad), best.area_px,
+                           seen=pos.copy())
         self.next_id += 1
 
     def _associate(self, t: Track, stamp_s: float, pose,
@@ -216,6 +225,7 @@ class Tracker:
                 speed = float(np.hypot(*t.vel))
                 if speed > self.p.max_target_speed_mps:
                     t.vel = t.vel * (self.p.max_target_speed_mps / speed)
+        t.seen = np.array(z, dtype=float)
         t.t_s = stamp_s
         t.direction_rad = direction
         t.area_px = o.area_px

@@ -33,12 +33,14 @@ from ascc_navigation.mapper import ScanInput, check_scan
 from target_follower.follower import (
     ACTIVE_STATES,
     DISABLED,
+    LOST,
     Follower,
     SafetySector,
 )
 from target_follower.following import OdomHistory, TargetFollowerParams, observation_from_detection
 from target_follower.msg import Target
 from target_follower.tracker import Tracker
+from target_follower.trail import Trail
 
 WARN_PERIOD_S = 5.0  # throttle period of repeated warnings [s]
 
@@ -50,6 +52,8 @@ class TargetFollowerNode:
         self.period = 1.0 / p.rate_hz  # [s]
         self.follower = Follower(p.follower)
         self.tracker = Tracker(p.tracker)
+        self.trail = Trail(p.trail)
+        self.trail_track_id = None
         self.odom = OdomHistory(p.odom_history_s)
         self.lock = threading.Lock()
         self.enabled = p.start_enabled
@@ -118,14 +122,28 @@ class TargetFollowerNode:
             self._take_target()
             self._take_scan(now)
             pose = self.odom.newest() or (0.0, 0.0, 0.0)
-            aim = self.tracker.aim(t, pose)
+            aim = self._aim(t, pose)
             cmd = self.follower.step(t, dt, self.target_stamp, aim, self.scan_stamp,
                                      self.blocked, self.blocked_reason)
             if cmd.state in ACTIVE_STATES or cmd.state != self.state:
                 self._send(cmd.v, cmd.w)
             self._set_state(cmd.state, cmd.reason)
+            if cmd.state == LOST:
+                self.trail.clear()
             if self.tracker.track is not None:
                 self._publish_point(now, self.tracker.track.predicted(t))
+
+    def _aim(self, t, pose):
+        """The tracked target predicted to ``t``, steered along its trail (trail.py)."""
+        aim = self.tracker.aim(t, pose)
+        track = self.tracker.track
+        if aim is None:  # lost from view: along the trail to where it was last seen
+            return self.trail.search_aim(pose, self.p.follower.distance_m)
+        if track is None or not track.has_position:
+            return aim
+        fp = self.p.follower
+        return self.trail.aim(pose, track.predicted(t), aim,
+                              fp.distance_m + fp.distance_tolerance_m, tuple(track.vel))
 
     def _dt(self, now):
         if self.last_now is not None and now < self.last_now:
@@ -141,6 +159,7 @@ class TargetFollowerNode:
     def _reset(self):
         self.follower.reset()
         self.tracker.reset()
+        self.trail.clear()
         self.odom.clear()
         self.target_msg = None
         self.target_stamp = self.scan_stamp = None
@@ -177,7 +196,13 @@ class TargetFollowerNode:
                                    "tracking as if the robot stood still"
                                    % rospy.resolve_name("odom"))
             pose = (0.0, 0.0, 0.0)
-        self.tracker.update(t, pose, observations)
+        track = self.tracker.update(t, pose, observations)
+        if track is not None and track.has_position and track.t_s == t:  # seen now
+            if track.id != self.trail_track_id:  # a new track: joins the trail or not
+                self.trail.restart(track.seen)
+                self.trail_track_id = track.id
+            else:
+                self.trail.add(track.seen)
         self.target_stamp = t if self.target_stamp is None else max(self.target_stamp, t)
 
     def _take_scan(self, now):
