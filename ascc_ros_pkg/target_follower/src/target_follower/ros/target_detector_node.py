@@ -39,6 +39,7 @@ from target_follower.detections import SHAPES, Scan, TargetShape, locate
 from target_follower.logo_detector import LogoDetector, LogoParams, load_template
 from target_follower.msg import Detection, Target
 
+SCAN_WARN_PERIOD_S = 60.0  # [s] throttle of the NaN/inf-in-scan warning
 WARN_PERIOD_S = 5.0  # throttle period of repeated warnings [s]
 COLOURS = {"cone": (0, 255, 0), "shirt": (255, 0, 255), "logo": (255, 255, 0)}
 
@@ -201,7 +202,8 @@ class TargetDetectorNode:
         r = np.asarray(msg.ranges, dtype=np.float64)
         bad = int(np.count_nonzero(~np.isfinite(r)))
         if bad:
-            rospy.logwarn_throttle(WARN_PERIOD_S, "target_detector: scan has %d NaN/inf "
+            # REP 117 allows them (no return, dropout), so once a minute is enough
+            rospy.logwarn_throttle(SCAN_WARN_PERIOD_S, "target_detector: scan has %d NaN/inf "
                                    "ranges of %d; those beams are ignored" % (bad, r.size))
         try:
             t = self.tf_buffer.lookup_transform(self.p.base_frame, msg.header.frame_id,
