@@ -1,0 +1,62 @@
+#!/usr/bin/env python3
+"""rostest: the ASCCbot follows a walking person in the simulated office
+(follow_office_sim.test, thesis 5.3).
+
+The whole pipeline runs as on a robot: the simulated Q24 serves its panorama as MJPEG over
+HTTP, the real driver q24_camera reads it, target_detector finds the orange shirt (range
+from the laser), target_follower drives the real Create driver. follow_monitor measures the
+run on the simulator's ground truth. Waits (wall-clock timeout, no fixed sleep) for its
+latched summary and checks: the person's route ended (not the time limit), no bumper hit,
+the robot ended within the distance band of the set point, the follower was following
+again after every corner, and on the straight segments the distance error stayed within
+the band (mean and 95th percentile).
+"""
+
+import json
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from std_msgs.msg import String
+
+WALL_TIMEOUT_S = 600.0
+
+
+class FollowSimTest(unittest.TestCase):
+    def test_person_followed_through_the_office(self):
+        cond = threading.Condition()
+        box = {}
+
+        def on_summary(msg):
+            with cond:
+                box["summary"] = json.loads(msg.data)
+                cond.notify_all()
+
+        rospy.Subscriber("follow_monitor/summary", String, on_summary)
+        deadline = time.monotonic() + WALL_TIMEOUT_S
+        with cond:
+            while "summary" not in box:
+                left = deadline - time.monotonic()
+                if left <= 0 or rospy.is_shutdown():
+                    self.fail("no follow summary within %.0f s wall time" % WALL_TIMEOUT_S)
+                cond.wait(min(left, 1.0))
+        s = box["summary"]
+        rospy.loginfo("follow run: %s" % json.dumps(s))
+        print("follow run: %s" % json.dumps(s))
+        band = s["band_m"]
+        self.assertEqual(s["end_reason"], "route_done", s)
+        self.assertEqual(s["bumps"], 0, s)
+        self.assertGreaterEqual(s["person_path_m"], 30.0, s)
+        self.assertLessEqual(abs(s["distance_final_m"] - s["set_distance_m"]), band, s)
+        self.assertGreater(len(s["corners"]), 0, s)
+        self.assertEqual(s["corners_reacquired"], len(s["corners"]), s)
+        self.assertGreater(s["straight_samples"], 100, s)
+        self.assertLessEqual(s["straight_error_mean_m"], band, s)
+        self.assertLessEqual(s["straight_error_p95_m"], band, s)
+
+
+if __name__ == "__main__":
+    rospy.init_node("rostest_follow_sim")
+    rostest.rosrun("ascc_eval", "follow_office_sim", FollowSimTest)
