@@ -13,8 +13,11 @@ lie within limits; the plausible ones are returned best first by their score,
 Brightness and white balance: a gain changes V, not H or S, so the value threshold is low;
 a white-balance error shifts the hue of orange by a few degrees, so the hue band is wide
 enough for +-25 % channel gains while staying clear of red (0 deg) and of yellow (50 deg,
-the logo's). Dark brown (orange hue, low value) and skin or beige (orange hue, low
-saturation) fall outside the value and saturation minima.
+the logo's). Brown and beige share orange's hue: what sets them apart is saturation.
+Orange paint or cloth is saturated (the simulator's orange renders at S >= 230 of 255
+after noise, drift and JPEG), the furniture's brown at S 140-180 (measured on rendered
+office frames), so ``sat_min`` = 200 lies in the gap; skin is lower still. A minimum of
+150 let brown desks pass as cones and shirts, and the follower then followed a desk.
 
 Every size limit is in pixels of the full-resolution image; ``Blob`` coordinates are too.
 """
@@ -43,7 +46,8 @@ class ColorParams:
     hue_max_deg: float = param(42.0, "[deg] upper end of the hue band (0..360; below "
                                      "hue_min_deg: the band wraps through 0)", ge=0.0,
                                le=360.0)
-    sat_min: int = param(150, "[0..255] minimum HSV saturation", ge=0, le=255)
+    sat_min: int = param(200, "[0..255] minimum HSV saturation (orange ~240+; brown ~160)",
+                         ge=0, le=255)
     val_min: int = param(110, "[0..255] minimum HSV value (brightness)", ge=0, le=255)
     processing_scale: float = param(0.25, "[1] the frame is shrunk by this factor before "
                                           "segmentation", gt=0.0, le=1.0)
