@@ -40,7 +40,9 @@ class TrackerParams:
     """Which targets to follow and how one is told from another (module doc)."""
 
     kinds: str = param("shirt", "comma-separated kinds to acquire: cone, shirt, logo")
-    min_confidence: float = param(0.3, "a detection's confidence needed to acquire it",
+    min_confidence: float = param(0.05, "a detection's confidence needed to acquire it "
+                                        "(the colour detector's score grows with the "
+                                        "blob's area: 0.05 is a shirt at ~5 m, 0.3 at ~2 m)",
                                   ge=0.0, le=1.0)
     gate_m: float = param(0.5, "[m] association gate around the predicted position",
                           gt=0.0)
