@@ -63,3 +63,28 @@ def test_laser_range_used_by_mapper_and_explorer_is_the_urg04lx_range():
     usable = _yaml("ascc_navigation", "config", "gmapping.yaml")["maxUrange"]
     assert usable == _yaml("frontier_detector", "config", "explorer.yaml")["sensor_range_m"]
     assert usable <= urg
+
+
+def test_follow_distance_defaults_agree():
+    """The follower's set point and the one follow_monitor measures against: one launch
+    argument in the follow launch files, the same default in both dataclasses."""
+    from ascc_eval.follow_eval import FollowMonitorParams
+    from target_follower.follower import FollowerParams
+    d = FollowerParams().distance_m
+    assert FollowMonitorParams().distance_m == d
+    for path in ("launch/sim/follow.launch", "launch/robot/follow.launch",
+                 "ascc_ros_pkg/target_follower/launch/follow.launch"):
+        assert _arg_default(path, "distance_m") == d, path
+
+
+def test_camera_mount_defaults_agree():
+    """The camera model's mount (the detector's and the simulated camera's default) and
+    the launch arguments that set the detector's model and the robot's camera TF."""
+    from ascc_common.camera_model import PanoramicCamera
+    cam = PanoramicCamera()
+    mount = {"camera_x_m": cam.mount_x_m, "camera_y_m": cam.mount_y_m,
+             "camera_z_m": cam.mount_z_m, "camera_yaw_rad": cam.mount_yaw_rad}
+    for path in ("launch/robot/follow.launch",
+                 "ascc_ros_pkg/target_follower/launch/follow.launch"):
+        for name, value in mount.items():
+            assert _arg_default(path, name) == value, (path, name)

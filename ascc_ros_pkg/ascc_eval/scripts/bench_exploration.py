@@ -32,9 +32,9 @@ of wall time, a corridor run about 10.
 import argparse
 import json
 import os
-import subprocess
 import sys
-import time
+
+from ascc_eval.launching import run_launch
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
                                     "..", "..", ".."))
@@ -44,20 +44,11 @@ DEFAULT_RTF = {"office": "4", "lab": "4", "corridor": "2"}  # real-time factor c
 
 def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
     run_dir = os.path.join(out, "%s_%s_seed%d" % (world, strategy, seed))
-    os.makedirs(run_dir, exist_ok=True)
-    env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
-    cmd = ["roslaunch", "-p", str(port), os.path.join(ROOT, "launch", "explore_demo.launch"),
-           "world:=%s" % world, "strategy:=%s" % strategy, "seed:=%d" % seed,
-           "real_time_factor:=%s" % rtf, "output_dir:=%s" % run_dir,
-           "max_time_s:=%s" % max_time_s]
-    start = time.time()
-    with open(os.path.join(run_dir, "launch.log"), "w") as log:
-        try:
-            subprocess.run(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
-                           timeout=timeout_s, check=False)
-        except subprocess.TimeoutExpired:
-            print("  %s/%s/seed %d: timed out after %d s" % (world, strategy, seed, timeout_s))
-    wall = time.time() - start
+    wall = run_launch(os.path.join(ROOT, "launch", "explore_demo.launch"),
+                      {"world": world, "strategy": strategy, "seed": seed,
+                       "real_time_factor": rtf, "output_dir": run_dir,
+                       "max_time_s": max_time_s},
+                      run_dir, port, timeout_s, "%s/%s/seed %d" % (world, strategy, seed))
     path = os.path.join(run_dir, "summary.json")
     if not os.path.exists(path):
         return {"world": world, "strategy": strategy, "seed": seed, "error": "no summary",
