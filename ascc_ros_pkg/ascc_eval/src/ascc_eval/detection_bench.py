@@ -211,6 +211,7 @@ def random_scenes(camera: PanoramicCamera, worlds: Sequence[str], kinds: Sequenc
         empty = _base_world(path)
         free = _free_positions(empty, robot_clearance_m)
         caster = RayCaster(empty.truth_map, max(distances) + 1.0)
+        walls = RayCaster(empty.map, max(distances) + 1.0)  # the building alone
         for kind in kinds:
             made = 0
             for _ in range(tries):
@@ -220,7 +221,8 @@ def random_scenes(camera: PanoramicCamera, worlds: Sequence[str], kinds: Sequenc
                 yaw0 = float(rng.uniform(-math.pi, math.pi))
                 scene = (_cone_at(rng, empty, caster, path, name, x, y, yaw0, distances)
                          if kind == "cone" else
-                         _poster_at(rng, camera, caster, path, name, x, y, yaw0, distances))
+                         _poster_at(rng, camera, caster, path, name, x, y, yaw0, distances,
+                                    walls))
                 if scene is not None:
                     out.append(scene)
                     made += 1
@@ -261,7 +263,8 @@ def _cone_at(rng, world: World, caster: RayCaster, path: str, name: str, x: floa
 
 
 def _poster_at(rng, camera: PanoramicCamera, caster: RayCaster, path: str, name: str,
-               x: float, y: float, yaw0: float, distances) -> Optional[Scene]:
+               x: float, y: float, yaw0: float, distances,
+               walls: Optional[RayCaster] = None) -> Optional[Scene]:
     phi = float(rng.integers(4)) * math.pi / 2.0  # walls of these maps are axis-aligned
     fwd = np.array([math.cos(phi), math.sin(phi)])
     side = np.array([-fwd[1], fwd[0]])
@@ -271,6 +274,8 @@ def _poster_at(rng, camera: PanoramicCamera, caster: RayCaster, path: str, name:
     d = float(ranges[len(offs) // 2])
     if not (distances[0] <= d <= distances[1]) or np.ptp(ranges) > 0.03:
         return None  # no flat wall at the distance, or something in front of it
+    if walls is not None and abs(walls.cast(x, y, np.array([phi]))[0][0] - d) > 0.03:
+        return None  # a face of furniture (a cabinet), not a wall: posters hang on walls
     lo, hi = poster_center_range(camera, d)
     lo, hi = max(lo, 0.6), min(hi, 1.1)
     if lo > hi:
