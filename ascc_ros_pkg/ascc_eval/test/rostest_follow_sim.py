@@ -14,36 +14,21 @@ reported over 5 seeds by `scripts/bench_follow.py` (docs/results/target_follower
 """
 
 import json
-import threading
-import time
 import unittest
 
 import rospy
 import rostest
 from std_msgs.msg import String
 
+from ascc_testing.waits import Latest
+
 WALL_TIMEOUT_S = 600.0
 
 
 class FollowSimTest(unittest.TestCase):
     def test_person_followed_through_the_office(self):
-        cond = threading.Condition()
-        box = {}
-
-        def on_summary(msg):
-            with cond:
-                box["summary"] = json.loads(msg.data)
-                cond.notify_all()
-
-        rospy.Subscriber("follow_monitor/summary", String, on_summary)
-        deadline = time.monotonic() + WALL_TIMEOUT_S
-        with cond:
-            while "summary" not in box:
-                left = deadline - time.monotonic()
-                if left <= 0 or rospy.is_shutdown():
-                    self.fail("no follow summary within %.0f s wall time" % WALL_TIMEOUT_S)
-                cond.wait(min(left, 1.0))
-        s = box["summary"]
+        summary = Latest("follow_monitor/summary", String).wait(WALL_TIMEOUT_S)
+        s = json.loads(summary.data)
         rospy.loginfo("follow run: %s" % json.dumps(s))
         print("follow run: %s" % json.dumps(s))
         band = s["band_m"]

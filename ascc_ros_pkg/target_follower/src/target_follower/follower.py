@@ -297,12 +297,9 @@ class Follower:
             self.v = self.w = 0.0
             return Command(0.0, 0.0, STALE, stale)
         if aim is not None and aim.searching:  # to where the target was last seen
-            if self.lost_since is None:
-                self.lost_since = now_s
-            if now_s - self.lost_since >= p.search_timeout_s:
-                self.v = self.w = 0.0
-                return Command(0.0, 0.0, LOST, "searched %.1f s without finding the target"
-                               % p.search_timeout_s)
+            timed_out = self._search_timed_out(now_s)
+            if timed_out is not None:
+                return timed_out
             self.last_bearing = aim.bearing_rad
             v, w = control_law(p, aim)
             reason = "to where the target was last seen"
@@ -323,17 +320,25 @@ class Follower:
         if self.last_bearing is None:
             self.v = self.w = 0.0
             return Command(0.0, 0.0, LOST, "no target acquired")
-        if self.lost_since is None:
-            self.lost_since = now_s
-        if now_s - self.lost_since >= p.search_timeout_s:
-            self.v = self.w = 0.0
-            return Command(0.0, 0.0, LOST, "searched %.1f s without finding the target"
-                           % p.search_timeout_s)
+        timed_out = self._search_timed_out(now_s)
+        if timed_out is not None:
+            return timed_out
         rate = min(p.search_angular_radps, p.max_angular_radps)
         w = rate if self.last_bearing >= 0.0 else -rate
         self.v = 0.0
         return self._limited(0.0, w, dt_s, SEARCHING, "last bearing %.2f rad"
                              % self.last_bearing)
+
+    def _search_timed_out(self, now_s: float) -> Optional[Command]:
+        """The LOST command once the search started ``search_timeout_s`` ago, else None
+        (the search's start is remembered)."""
+        if self.lost_since is None:
+            self.lost_since = now_s
+        if now_s - self.lost_since < self.p.search_timeout_s:
+            return None
+        self.v = self.w = 0.0
+        return Command(0.0, 0.0, LOST, "searched %.1f s without finding the target"
+                       % self.p.search_timeout_s)
 
     @staticmethod
     def _stale(now_s: float, stamp_s: Optional[float], timeout_s: float, what: str) -> str:
