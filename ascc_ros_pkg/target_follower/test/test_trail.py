@@ -107,3 +107,25 @@ def test_a_target_found_again_near_the_trail_end_continues_the_trail():
     assert len(tr.points) == n + 1
     tr.restart((8.0, 8.0))  # far away: someone else, or a jump: a new trail
     assert tr.points == [(8.0, 8.0)]
+
+
+def test_a_person_just_round_a_corner_is_followed_by_the_path_not_the_straight_line():
+    """Half-way through a right-angle turn the straight range (1.41 m) is below the set
+    distance (1.6 m here) but the path (2.0 m) is not all travelled: the robot keeps
+    driving along the trail; nearer than direct_within_m in a straight line it faces the
+    person."""
+    tr = Trail(TrailParams())
+    for p in walked([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)]):
+        tr.add(p)
+    pose = (0.0, 0.0, 0.0)
+    target = (1.0, 1.0)
+    direct = direct_aim(pose, target)
+    assert direct.range_m == pytest.approx(1.41, abs=0.01)
+    aim = tr.aim(pose, target, direct, distance_m=1.6)
+    assert aim is not direct and aim.range_m == pytest.approx(2.0, abs=0.05)
+    assert abs(aim.bearing_rad) < math.radians(5)  # along the first leg
+    close = Trail(TrailParams(direct_within_m=0.9))
+    for p in walked([(0.0, 0.0), (0.5, 0.0), (0.5, 0.3)]):
+        close.add(p)
+    near = direct_aim(pose, (0.5, 0.3))
+    assert close.aim(pose, (0.5, 0.3), near, distance_m=0.7) is near
