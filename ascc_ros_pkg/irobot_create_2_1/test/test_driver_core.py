@@ -4,7 +4,7 @@ import math
 import pytest
 
 from irobot_create_2_1 import protocol as oi
-from irobot_create_2_1.driver_core import CreateDriverCore, StreamClock, Throttle
+from irobot_create_2_1.driver_core import CreateDriverCore, StreamClock
 from irobot_create_2_1.kinematics import twist_to_wheels, wheels_to_twist
 from irobot_create_2_1.odometry import Odometry, integrate_arc
 from irobot_create_2_1.sensor_state import battery_si, brown_fields
@@ -215,18 +215,6 @@ def test_core_keeps_the_pose_after_each_frame_of_a_burst():
     xs = [pose[0] for _, pose in core.frame_poses]
     assert xs == sorted(xs) and xs[-1] == pytest.approx(core.odom.x)
     assert math.degrees(core.frame_poses[9][1][2]) == pytest.approx(10.0)
-
-
-def test_throttle_is_per_kind():
-    t = Throttle(5.0)
-    assert t.ready("saturated", 0.0)
-    assert not t.ready("saturated", 1.0)
-    assert t.ready("rejected", 1.0)          # a frequent kind does not hide another
-    assert not t.ready("rejected", 5.9)
-    assert not t.ready("saturated", 4.99)
-    assert t.ready("saturated", 5.0)
-    assert t.ready("rejected", 6.0)
-    assert t.ready("rejected", 2.0)          # time went back (restarted simulator)
 
 
 def test_warning_kind():

@@ -7,12 +7,12 @@ import threading
 import pytest
 
 from ascc_common.params import ParamError, from_params
+from ascc_common.throttle import Throttle
 from target_follower.camera_driver import (
     Backoff,
     NewestFrame,
     Q24CameraParams,
     RateMeter,
-    WarnThrottle,
     jpeg_problem,
 )
 from target_follower.mjpeg import Frame
@@ -91,15 +91,16 @@ def test_rate_meter_over_its_window():
 
 
 def test_warn_throttle_per_kind():
+    """The driver's warnings go through ascc_common's Throttle on the monotonic clock."""
     clock = Clock()
-    throttle = WarnThrottle(5.0, clock=clock)
-    assert throttle.allow("corrupt")
-    assert not throttle.allow("corrupt")
-    assert throttle.allow("HttpStatusError")  # another kind is not hidden
+    throttle = Throttle(5.0)
+    assert throttle.ready("corrupt", clock())
+    assert not throttle.ready("corrupt", clock())
+    assert throttle.ready("HttpStatusError", clock())  # another kind is not hidden
     clock.t += 5.0
-    assert throttle.allow("corrupt")
+    assert throttle.ready("corrupt", clock())
     clock.t -= 50.0  # time went back
-    assert throttle.allow("corrupt")
+    assert throttle.ready("corrupt", clock())
 
 
 def test_jpeg_problem_accepts_good_and_names_each_corruption():

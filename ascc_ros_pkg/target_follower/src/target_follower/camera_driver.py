@@ -5,7 +5,7 @@ import collections
 import threading
 import time
 from dataclasses import dataclass
-from typing import Callable, Deque, Dict, Optional, Tuple
+from typing import Callable, Deque, Optional, Tuple
 
 import cv2
 import numpy as np
@@ -120,23 +120,6 @@ class RateMeter:
         cutoff = self._clock() - self.window_s
         while self._times and self._times[0] < cutoff:
             self._times.popleft()
-
-
-class WarnThrottle:
-    """At most one warning per ``period_s`` for each kind (a frequent kind, corrupt
-    frames, cannot hide a rare one, a 404). Time going back restarts the period."""
-
-    def __init__(self, period_s: float, clock: Callable[[], float] = time.monotonic):
-        self.period_s = period_s
-        self._clock = clock
-        self._last: Dict[str, float] = {}
-
-    def allow(self, kind: str) -> bool:
-        now, last = self._clock(), self._last.get(kind)
-        if last is not None and last <= now < last + self.period_s:
-            return False
-        self._last[kind] = now
-        return True
 
 
 def jpeg_problem(data: bytes, decode: bool = True, full: bool = False

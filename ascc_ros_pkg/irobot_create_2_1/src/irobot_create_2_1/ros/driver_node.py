@@ -20,8 +20,9 @@ from sensor_msgs.msg import BatteryState
 
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
+from ascc_common.throttle import Throttle
 from irobot_create_2_1 import protocol, sensor_state
-from irobot_create_2_1.driver_core import CreateDriverCore, DriverParams, Throttle
+from irobot_create_2_1.driver_core import CreateDriverCore, DriverParams
 from irobot_create_2_1.link import SerialLink
 from irobot_create_2_1.msg import Hazards, SensorPacket
 from irobot_create_2_1.odometry import twist_covariance

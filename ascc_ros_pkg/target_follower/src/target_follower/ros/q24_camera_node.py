@@ -23,6 +23,7 @@ from sensor_msgs.msg import CompressedImage, Image
 from std_msgs.msg import Float64
 
 from ascc_common.params import ParamError, from_params
+from ascc_common.throttle import Throttle
 from target_follower import mjpeg
 from target_follower.camera_driver import (
     COMPRESSED_FORMAT,
@@ -30,7 +31,6 @@ from target_follower.camera_driver import (
     NewestFrame,
     Q24CameraParams,
     RateMeter,
-    WarnThrottle,
     jpeg_problem,
 )
 
@@ -43,7 +43,7 @@ class Q24CameraNode:
         self.url = mjpeg.redact(p.url)  # as logged: no password
         self.slot = NewestFrame()
         self.backoff = Backoff(p.reconnect_min_s, p.reconnect_max_s)
-        self.throttle = WarnThrottle(WARN_PERIOD_S)
+        self.throttle = Throttle(WARN_PERIOD_S)
         self.rate = RateMeter()
         self.lock = threading.Lock()
         self.stop = threading.Event()
@@ -79,7 +79,7 @@ class Q24CameraNode:
     def warn(self, kind, text):
         """Warn at most once per WARN_PERIOD_S per kind of problem."""
         with self.lock:
-            ready = self.throttle.allow(kind)
+            ready = self.throttle.ready(kind, time.monotonic())
         if ready:
             rospy.logwarn("q24_camera: " + text)
 
