@@ -15,6 +15,7 @@ the table to OUT/results.json. About 2.5 minutes of wall time per office run.
 
     python ascc_ros_pkg/ascc_eval/scripts/bench_follow.py [--seeds 0 1 2 3 4]
         [--world office_follow] [--rtf 1] [--out output/bench_follow] [--report-only]
+        [--follower-params FILE.yaml]
 """
 import argparse
 import json
@@ -30,14 +31,14 @@ KEYS = ("straight_error_mean_m", "straight_error_p95_m", "straight_error_max_m",
         "person_path_m", "end_reason")
 
 
-def run_one(world, seed, rtf, out, port, timeout_s, max_time_s):
+def run_one(world, seed, rtf, out, port, timeout_s, max_time_s, follower_params=""):
     run_dir = os.path.join(out, "%s_seed%d" % (world, seed))
     wall = run_launch(os.path.join(ROOT, "launch", "sim", "follow.launch"),
                       {"world": os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
                                              world + ".yaml"),
                        "seed": seed, "real_time_factor": rtf, "monitor": "true",
                        "output_dir": run_dir, "label": "%s seed %d" % (world, seed),
-                       "max_time_s": max_time_s},
+                       "max_time_s": max_time_s, "follower_params": follower_params},
                       run_dir, port, timeout_s, "%s/seed %d" % (world, seed))
     path = os.path.join(run_dir, "%s_seed_%d.json" % (world, seed))
     row = {"world": world, "seed": seed, "wall_s": round(wall, 1)}
@@ -92,6 +93,8 @@ def main(argv=None):
     ap.add_argument("--max-time-s", type=float, default=400.0)
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_follow"))
     ap.add_argument("--port", type=int, default=11511)
+    ap.add_argument("--follower-params", default="",
+                    help="YAML of target_follower ~parameters over the defaults")
     ap.add_argument("--report-only", action="store_true")
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
@@ -100,11 +103,12 @@ def main(argv=None):
     if os.path.exists(table):
         with open(table) as f:
             rows = json.load(f)
+    params = os.path.abspath(args.follower_params) if args.follower_params else ""
     if not args.report_only:
         for seed in args.seeds:
             print("[bench_follow] %s seed %d ..." % (args.world, seed), flush=True)
             row = run_one(args.world, seed, args.rtf, args.out, args.port, 900,
-                          args.max_time_s)
+                          args.max_time_s, params)
             rows = [r for r in rows if (r["world"], r["seed"]) != (args.world, seed)]
             rows.append(row)
             with open(table, "w") as f:

@@ -76,8 +76,15 @@ def test_files_are_written(tmp_path):
     rec = l_route_run(lambda t: 1.4)
     rec.add_bump(3.0)
     files = rec.write(str(tmp_path), "run")
-    assert [f.rsplit("/", 1)[1] for f in files] == ["run.json", "run.png"]
+    assert [f.rsplit("/", 1)[1] for f in files] == ["run.json", "run.csv", "run.png"]
     assert json.load(open(files[0]))["bumps"] == 1
+    rows = (tmp_path / "run.csv").read_text().splitlines()
+    assert rows[0].split(",")[0] == "t_s" and rows[0].split(",")[-1] == "state"
+    assert len(rows) == len(rec.samples) + 1
+    last = rows[-1].split(",")
+    assert float(last[0]) == pytest.approx(rec.samples[-1].t, abs=1e-3)
+    assert float(last[7]) == pytest.approx(rec.arrays()["distance"][-1], abs=1e-3)
+    assert last[8] == rec.samples[-1].state
     assert (tmp_path / "run.png").stat().st_size > 1000
 
 

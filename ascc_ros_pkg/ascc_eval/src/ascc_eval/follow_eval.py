@@ -165,7 +165,9 @@ class FollowRecord:
 
     # -- files ------------------------------------------------------------------------
     def write(self, out_dir: str, stem: str = "") -> List[str]:
-        """``<stem>.json`` and ``<stem>.png`` (paths and distance over time)."""
+        """``<stem>.json`` (the summary), ``<stem>.csv`` (the samples: t [s], the robot's
+        and the person's true x, y [m] and yaw/heading [rad], the distance [m], the
+        follower's state) and ``<stem>.png`` (paths and distance over time)."""
         os.makedirs(out_dir, exist_ok=True)
         stem = stem or _file_safe(self.label)
         js = os.path.join(out_dir, stem + ".json")
@@ -173,6 +175,16 @@ class FollowRecord:
             json.dump(self.summary(), f, indent=2)
         files = [js]
         if self.samples:
+            a = self.arrays()
+            csv_path = os.path.join(out_dir, stem + ".csv")
+            with open(csv_path, "w") as f:
+                f.write("t_s,robot_x_m,robot_y_m,robot_yaw_rad,person_x_m,person_y_m,"
+                        "person_heading_rad,distance_m,state\n")
+                for k in range(a["t"].size):
+                    f.write("%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%s\n" % (
+                        (a["t"][k],) + tuple(a["robot"][k]) + tuple(a["person"][k])
+                        + (a["distance"][k], a["state"][k])))
+            files.append(csv_path)
             png = os.path.join(out_dir, stem + ".png")
             self.plot(png)
             files.append(png)

@@ -6,8 +6,9 @@ Subscribes (relative names): `ground_truth/<~robot>/pose` (PoseStamped), `ground
 (bumper hits). Every `~sample_period_s` of simulated time it stores one sample in an
 ascc_eval.follow_eval.FollowRecord. The run ends when `~max_time_s` passed, or the person
 has stood still for `~end_after_stop_s` after walking (its route ended), or the node shuts
-down; then it publishes `~summary` (std_msgs/String, JSON, latched), writes `<label>.json`
-and `<label>.png` to `~output_dir` when set, and exits if `~shutdown_when_finished`.
+down; then it publishes `~summary` (std_msgs/String, JSON, latched), writes `<label>.json`,
+`<label>.csv` and `<label>.png` to `~output_dir` when set, and exits if
+`~shutdown_when_finished`.
 Parameters: ascc_eval.follow_eval.FollowMonitorParams. All the measuring is FollowRecord;
 this file only wires it.
 """
