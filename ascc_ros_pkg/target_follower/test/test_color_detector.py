@@ -85,6 +85,54 @@ def test_blobs_do_not_cross_the_strip_boundary():
     assert sorted(b.v < CAM.strip_height_px for b in blobs) == [False, True]
 
 
+def double_panorama_with(kind, bearing, range_m, seed):
+    """A 1024 x 768 double panorama with one ``kind`` at ``bearing``, drawn on one 360 deg
+    strip (so a target on a seam is whole) that is then cut into the two strips: its
+    column c is the double panorama's unwrapped column c - 512 (+90 deg at column 0). Not
+    near 180 deg, the ends of that strip."""
+    cam360 = PanoramicCamera(width_px=2 * CAM.width_px, height_px=CAM.strip_height_px,
+                             layout="panorama", mount_z_m=CAM.mount_z_m)
+    rng = np.random.default_rng(seed)
+    img = S.background(cam360, rng, clutter=10)
+    draw = S.draw_cone if kind == "cone" else S.draw_person
+    draw(img, cam360, bearing, range_m)
+    img = S.photometric(img, rng, gain=1.1)
+    unwrapped = np.roll(img, -CAM.width_px // 2, axis=1)
+    return np.vstack([unwrapped[:, :CAM.width_px], unwrapped[:, CAM.width_px:]])
+
+
+@pytest.mark.parametrize("kind", ["cone", "shirt"])
+@pytest.mark.parametrize("bearing_deg", [-90.0, 90.0, -88.5, 91.0, 0.0, 150.0])
+def test_a_target_on_a_strip_seam_is_one_blob(kind, bearing_deg):
+    """At +-90 deg a target lies half at the end of one strip and half at the start of
+    the other: one blob, at the right bearing (each half alone failed the shape limits
+    or gave two bearings)."""
+    det = make_detector(kind, strip_height_px=CAM.strip_height_px)
+    for k, range_m in enumerate([1.2, 2.5]):
+        img = double_panorama_with(kind, math.radians(bearing_deg), range_m, 40 + k)
+        blobs = det.detect(img)
+        assert len(blobs) == 1, (range_m, [b.to_json() for b in blobs])
+        b = blobs[0]
+        assert bearing_error_deg(b, math.radians(bearing_deg)) < 2.0, (range_m, b.to_json())
+        x, y, w, h = b.bbox
+        assert 0 <= x and x + w <= CAM.width_px and w > 0  # the part in its strip
+        strip = int(b.v // CAM.strip_height_px)
+        assert strip * CAM.strip_height_px <= y and y + h <= (strip + 1) * CAM.strip_height_px
+
+
+def test_wrap_joins_the_ends_of_a_single_360_strip():
+    cam360 = PanoramicCamera(width_px=2048, height_px=384, layout="panorama")
+    img = np.full((384, 2048, 3), 120, np.uint8)
+    S.draw_cone(img, cam360, 0.0, 1.5)
+    img = np.roll(img, 1024, axis=1)  # the cone at 180 deg: half at each end
+    params = from_params(ColorParams, tree_getter({}))
+    halves = ColorDetector("cone", params, 0, wrap=False).detect(img)
+    (blob,) = ColorDetector("cone", params, 0, wrap=True).detect(img)
+    assert blob.area_px > 1.6 * max([h.area_px for h in halves] + [1.0])
+    b, _ = cam360.pixel_to_ray(blob.u, blob.v)
+    assert abs(math.degrees(math.remainder(float(b) - math.pi, 2 * math.pi))) < 2.0
+
+
 def test_bad_images_and_kinds_raise():
     det = make_detector("cone")
     with pytest.raises(ValueError):

@@ -4,8 +4,14 @@ The thesis's pipeline, vectorised with OpenCV: (optionally) shrink the frame by
 ``processing_scale`` (INTER_AREA, which also averages the sensor noise), Gaussian blur,
 BGR -> HSV, threshold each channel (hue band, minimum saturation and value), dilate then
 erode (a closing that fills small holes and joins the blob), connected components
-(``cv2.connectedComponentsWithStats``) per panorama strip, so that a blob never spans the
-boundary between the front and the rear strip. A component is a plausible target when its
+(``cv2.connectedComponentsWithStats``). In a double panorama the components are found on
+the two strips laid side by side, one 360-degree strip (front +90 .. -90 deg, then rear
+-90 .. 180 .. +90 deg), so a blob never spans the rows between the front and the rear
+strip, and a target at a bearing of -90 deg (the front strip's right edge continues as the
+rear strip's left edge) is one blob, not two halves; components touching both ends of the
+360-degree strip (+90 deg) are merged too (``wrap``, also for a single 360-degree
+panorama). A merged blob's centroid lies in one strip: its ``bbox`` is the part in that
+strip (the whole blob decides area, aspect and fill). A component is a plausible target when its
 area, the aspect of its bounding box (height / width) and its fill ratio (area / box area)
 lie within limits; the plausible ones are returned best first by their score,
 ``1 - exp(-area / score_area_px)``, i.e. the largest first (the thesis's "largest blob").
@@ -100,9 +106,12 @@ class ColorDetector:
     """Detects the blobs of one colour kind in BGR frames (thread-compatible: no state
     besides the parameters and the prebuilt kernel)."""
 
-    def __init__(self, kind: str, params: ColorParams, strip_height_px: int = 0):
+    def __init__(self, kind: str, params: ColorParams, strip_height_px: int = 0,
+                 wrap: bool = False):
         """``strip_height_px``: height of one panorama strip of the full-resolution frame
-        (384 for a 1024 x 768 double panorama; 0: one strip, the whole frame)."""
+        (384 for a 1024 x 768 double panorama, whose two strips cover 360 deg and join at
+        both ends; 0: one strip, the whole frame); ``wrap``: a single strip covers 360
+        deg, so its left and right edges join."""
         if kind not in COLOR_KINDS:
             raise ValueError("colour detector kind must be one of %s, not %r"
                              % (COLOR_KINDS, kind))
@@ -110,6 +119,7 @@ class ColorDetector:
         self.kind = kind
         self.p = params
         self.strip_height_px = strip_height_px
+        self.wrap = wrap
         k = params.morph_kernel_px
         self.kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)) if k > 0 else None
         lo = int(round(params.hue_min_deg / 2.0)) % 180  # OpenCV hue: 0..179 = 0..358 deg
@@ -143,34 +153,65 @@ class ColorDetector:
         m = self.mask(bgr)
         sy = m.shape[0] / float(bgr.shape[0])
         sx = m.shape[1] / float(bgr.shape[1])
-        strips = [(0, m.shape[0])]
-        if 0 < self.strip_height_px < bgr.shape[0]:
+        if 0 < self.strip_height_px < bgr.shape[0]:  # double panorama: one 360 deg strip
             cut = int(round(self.strip_height_px * sy))
-            strips = [(0, cut), (cut, m.shape[0])]
-        blobs: List[Blob] = []
-        for r0, r1 in strips:
-            blobs += self._components(m[r0:r1], r0, sx, sy)
+            rows = min(cut, m.shape[0] - cut)
+            blobs = self._components(np.hstack([m[:rows], m[cut:cut + rows]]), sx, sy,
+                                     True, cut, bgr.shape[1])
+        else:
+            blobs = self._components(m, sx, sy, self.wrap, 0, bgr.shape[1])
         blobs.sort(key=lambda b: -b.score)
         return blobs[:self.p.max_detections]
 
-    def _components(self, m: np.ndarray, row0: int, sx: float, sy: float) -> List[Blob]:
+    def _components(self, m: np.ndarray, sx: float, sy: float, wrap: bool, cut: int,
+                    width_px: int) -> List[Blob]:
+        """Blobs of the mask ``m`` (processing scale), one strip or the two strips of a
+        double panorama side by side (``cut``: the rear strip's first row in the processed
+        frame, 0 for one strip); ``wrap``: ``m``'s ends join (360 deg)."""
         p = self.p
-        n, _, stats, cents = cv2.connectedComponentsWithStats(m, connectivity=8)
+        n, labels, stats, cents = cv2.connectedComponentsWithStats(m, connectivity=8)
         if n <= 1:
             return []
+        width = m.shape[1]
         st = stats[1:].astype(np.float64)
-        w, h, a = st[:, cv2.CC_STAT_WIDTH], st[:, cv2.CC_STAT_HEIGHT], st[:, cv2.CC_STAT_AREA]
+        x0, y0 = st[:, cv2.CC_STAT_LEFT], st[:, cv2.CC_STAT_TOP]
+        x1, y1 = x0 + st[:, cv2.CC_STAT_WIDTH], y0 + st[:, cv2.CC_STAT_HEIGHT]
+        a = st[:, cv2.CC_STAT_AREA]
+        cx, cy = cents[1:, 0] * a, cents[1:, 1] * a  # area-weighted, summed when merged
+        keep = np.ones(n - 1, bool)
+        if wrap:  # components meeting across the ends of the 360 deg strip are one
+            ends = (labels[:, -1] > 0) & (labels[:, 0] > 0)
+            for r, q in sorted(set(zip(labels[ends, -1] - 1, labels[ends, 0] - 1))):
+                if r == q or not (keep[r] and keep[q]):
+                    continue  # a ring round the whole panorama, or merged already
+                # the right-end part moves one turn left, next to the left-end part
+                x0[q], x1[q] = min(x0[q], x0[r] - width), max(x1[q], x1[r] - width)
+                y0[q], y1[q] = min(y0[q], y0[r]), max(y1[q], y1[r])
+                cx[q] += cx[r] - width * a[r]
+                cy[q] += cy[r]
+                a[q] += a[r]
+                keep[r] = False
+        w, h = x1 - x0, y1 - y0
         area = a / (sx * sy)  # in full-resolution pixels
         aspect = (h / sy) / (w / sx)
         fill = a / (w * h)
-        ok = ((area >= p.min_area_px) & (area <= p.max_area_px) & (aspect >= p.min_aspect)
-              & (aspect <= p.max_aspect) & (fill >= p.min_fill) & (fill <= p.max_fill))
+        ok = keep & ((area >= p.min_area_px) & (area <= p.max_area_px)
+                     & (aspect >= p.min_aspect) & (aspect <= p.max_aspect)
+                     & (fill >= p.min_fill) & (fill <= p.max_fill))
         out = []
+        strip_w = width_px * sx  # one strip's width at processing scale
         for i in np.flatnonzero(ok):
-            x0, y0 = st[i, cv2.CC_STAT_LEFT], st[i, cv2.CC_STAT_TOP] + row0
-            cu, cv = cents[i + 1]
-            out.append(Blob(self.kind, (cu + 0.5) / sx, (cv + row0 + 0.5) / sy,
-                            (int(round(x0 / sx)), int(round(y0 / sy)),
-                             int(round(w[i] / sx)), int(round(h[i] / sy))),
+            cu = cx[i] / a[i] + 0.5  # continuous coordinates, processing scale
+            turns = math.floor(cu / width)  # a merged blob may sit left of column 0
+            cu -= turns * width
+            cv = cy[i] / a[i] + 0.5
+            rear = cut > 0 and cu >= strip_w
+            du, dv = (strip_w, -cut) if rear else (0.0, 0.0)
+            du += turns * width
+            bx0, bx1 = max(x0[i] - du, 0.0), min(x1[i] - du, strip_w)
+            by0 = y0[i] - dv
+            out.append(Blob(self.kind, (cu - du) / sx, (cv - dv) / sy,
+                            (int(round(bx0 / sx)), int(round(by0 / sy)),
+                             int(round((bx1 - bx0) / sx)), int(round(h[i] / sy))),
                             float(area[i]), 1.0 - math.exp(-area[i] / p.score_area_px)))
         return out

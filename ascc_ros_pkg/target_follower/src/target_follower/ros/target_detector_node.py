@@ -96,7 +96,9 @@ class TargetDetectorNode:
             if kind in COLOR_KINDS:
                 tree = load_config(os.path.join(pkg, "config", "%s.yaml" % kind))
                 cp = from_params(ColorParams, layered_getter("~%s/" % kind, tree))
-                self.detectors[kind] = ColorDetector(kind, cp, self.cam.strip_height_px)
+                full_turn = self.cam.strips * self.cam.strip_span_rad >= 2.0 * math.pi - 1e-6
+                self.detectors[kind] = ColorDetector(kind, cp, self.cam.strip_height_px,
+                                                     wrap=full_turn)
         self.logo_params = from_params(LogoParams, rospy.get_param, "~logo/")
         self.template_path = p.template or os.path.join(pkg, "templates", "ascc_logo.png")
         self.shapes = {"cone": TargetShape(True, SHAPES["cone"].height_m, p.target_radius_m),
