@@ -13,7 +13,8 @@ from ascc_sim.world import WorldError, circle_overlaps, load_map, load_world
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WORLDS = os.path.join(PKG, "worlds")
-SHIPPED = ["office", "office_follow", "corridor", "lab", "apartment", "three_robots"]
+SHIPPED = ["office", "office_follow", "apartment_follow", "corridor", "lab", "apartment",
+           "three_robots"]
 
 
 def write_map(tmp_path, pixels, name="m", **fields):
@@ -272,13 +273,15 @@ def _distance_to_polygon(x, y, poly):
     return float(np.hypot(a[:, 0] + t * ab[:, 0] - x, a[:, 1] + t * ab[:, 1] - y).min())
 
 
-def test_office_follow_route():
+@pytest.mark.parametrize("name, base", [("office_follow", "office"),
+                                        ("apartment_follow", "apartment")])
+def test_follow_route(name, base):
     """The person to follow (thesis 5.3): orange, 0.3 m/s, >= 30 m with corners and
     straight legs of several metres, starting about 1.5 m in front of the robot, and
-    keeping >= 0.5 m from walls and every piece of furniture (legs tables included)."""
-    w = load_world(os.path.join(WORLDS, "office_follow.yaml"))
-    office = load_world(os.path.join(WORLDS, "office.yaml"))
-    assert w.map_path == office.map_path
+    keeping >= 0.5 m from walls and every piece of furniture (legs tables included);
+    office_follow is where the follower was tuned, apartment_follow is held out."""
+    w = load_world(os.path.join(WORLDS, name + ".yaml"))
+    assert w.map_path == load_world(os.path.join(WORLDS, base + ".yaml")).map_path
     (p,) = w.people
     assert p.speed_mps == pytest.approx(0.3) and p.color == (1.0, 0.45, 0.0)
     pts = np.array([[wp.x, wp.y] for wp in p.route])
