@@ -51,6 +51,34 @@ def test_laser_range_when_a_beam_hits_the_target():
     assert abs(loc.range_m - (r - 0.1)) < 0.05
 
 
+def test_laser_range_is_the_target_not_the_wall_behind_it():
+    """A real Hokuyo sees a person's legs (two ~6 cm posts), here 0.3 m in front of a
+    wall: within the ray's radius the wall has more hits than the legs; the range is the
+    legs' (the nearest group of hits), not the median of both."""
+    b, r = 0.6, 1.3
+    u = np.array([math.cos(b), math.sin(b)])
+    n = np.array([-u[1], u[0]])
+    a = -math.pi + 0.005 * np.arange(1257)
+    d = np.stack([np.cos(a), np.sin(a)], axis=1)
+    ranges = np.full(a.size, 9.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wall = (r + 0.3) / (d @ u)  # a wall across the ray, 0.3 m behind the legs
+    ranges = np.where((wall > 0) & (wall < ranges), wall, ranges)
+    for side in (-0.1, 0.1):  # two legs, radius 6 cm, 0.2 m apart
+        c = r * u + side * n
+        along = d @ c
+        perp2 = c @ c - along ** 2
+        hit = (along > 0) & (perp2 < 0.06 ** 2)
+        ranges[hit] = np.minimum(ranges[hit], along[hit] - np.sqrt(0.06 ** 2 - perp2[hit]))
+    scan = Scan(ranges, float(a[0]), 0.005, 0.02, 5.6, (0.0, 0.0, 0.0))
+    img = np.full((CAM.height_px, CAM.width_px, 3), 110, np.uint8)
+    S.draw_person(img, CAM, b, r + 0.06)
+    (shirt,) = make_detector("shirt", strip_height_px=CAM.strip_height_px).detect(img)[:1]
+    loc = locate(CAM, shirt, SHAPES["shirt"], scan)
+    assert loc.range_source == RANGE_LASER
+    assert abs(loc.range_m - (r - 0.06)) < 0.06, loc.range_m
+
+
 def test_laser_ignored_when_it_hits_something_else():
     """A wall 4 m away behind the cone's bearing, nothing at the cone: size range."""
     scan = scan_with_circle((9.0, 9.0), 0.1)

@@ -7,8 +7,12 @@ strip of its centroid, and its top and bottom rows are read in that strip). The 
 1. **laser** (``RANGE_LASER``): the scan's beams, transformed into base_link with the
    laser's pose there, whose hit points lie within ``radius_m`` of the camera ray towards
    the target and whose distance along the ray is within ``gate_m`` of the size estimate
-   (the beam hits the target, not the wall behind it or an obstacle in front); the range
-   is the median of those distances;
+   (the beam hits the target, not the wall behind it or an obstacle in front); of those,
+   the nearest group (sorted along the ray, split where consecutive hits are more than
+   ``CLUSTER_GAP_M`` apart; the first group of at least two hits): a real laser sees a
+   person's legs, two thin posts, and a wall 0.3 m behind them has more hits within the
+   ray's radius, so the median of all hits put the person 0.2 m too far; the range is
+   that group's median;
 2. else **size** (``RANGE_SIZE``): the cone from its floor contact (the blob's bottom edge,
    ``range_from_floor_contact``), the shirt and the logo from their vertical extent and
    known height (``range_from_extent``);
@@ -30,6 +34,7 @@ from ascc_common.camera_model import PanoramicCamera
 from .color_detector import Blob
 
 RANGE_NONE, RANGE_LASER, RANGE_SIZE = 0, 1, 2  # Detection.msg's range_source values
+CLUSTER_GAP_M = 0.15  # [m] hits farther apart along the ray belong to different objects
 
 
 @dataclass
@@ -117,7 +122,10 @@ def laser_range(cam: PanoramicCamera, bearing_cam: float, estimate_m: float, sca
     hit = (along > 0) & (perp <= radius_m) & (np.abs(along - estimate_m) <= gate_m)
     if not np.any(hit):
         return None
-    return float(np.median(along[hit]))
+    d = np.sort(along[hit])
+    groups = np.split(d, np.flatnonzero(np.diff(d) > CLUSTER_GAP_M) + 1)
+    nearest = next((g for g in groups if g.size >= 2), d)
+    return float(np.median(nearest))
 
 
 def locate(cam: PanoramicCamera, blob: Blob, shape: TargetShape, scan: Optional[Scan] = None,
