@@ -237,6 +237,54 @@ def test_obstacle_in_the_path_blocks_one_beside_it_does_not():
         assert not blocked, (point, why)
 
 
+def test_a_curved_path_is_checked_along_its_arc():
+    """A post ahead and to the right blocks the straight path and a right turn, not a left
+    turn that passes it (a robot turning through a door past its frame)."""
+    s = sector()
+    r = scan_with([(0.35, -0.15)])
+    assert s.check(r, RANGE_MIN, RANGE_MAX)[0]  # straight ahead (default)
+    assert s.check(r, RANGE_MIN, RANGE_MAX, 0.0, 0.3)[0]
+    assert not s.check(r, RANGE_MIN, RANGE_MAX, 2.0, 0.3)[0]  # left, 0.5 m radius
+    assert s.check(r, RANGE_MIN, RANGE_MAX, -2.0, 0.3)[0]  # right
+    # a shorter path stops before the post: only the length decides then
+    assert not s.check(r, RANGE_MIN, RANGE_MAX, 0.0, 0.1)[0]
+    # the arc's swept region against its definition: within R of a point of the arc
+    k, length = 1.5, 0.3
+    xy = np.random.default_rng(3).uniform([-0.1, -0.6], [0.7, 0.6], (2000, 2))
+    arc = np.linspace(0.0, length, 3001)
+    ax, ay = np.sin(k * arc) / k, (1.0 - np.cos(k * arc)) / k
+    d = np.hypot(xy[:, :1] - ax, xy[:, 1:] - ay).min(axis=1)
+    got = s.in_swept(xy[:, 0], xy[:, 1], k, length)
+    clear = np.abs(d - s.radius) > 1e-3  # away from the boundary
+    assert np.array_equal(got[clear], ((d <= s.radius) & (xy[:, 0] >= 0.0))[clear])
+
+
+def test_follower_checks_the_commanded_arc_and_the_braking_path():
+    p = FollowerParams()
+    s = SafetySector(p, ANGLES, MOUNT)
+    free = scan_with()
+    f = Follower(p)
+    for k in range(30):  # full speed toward a far target, nothing in the way
+        f.step(k * DT, DT, k * DT, Aim(0.0, 5.0), k * DT,
+               lambda c, d: s.check(free, RANGE_MIN, RANGE_MAX, c, d))
+    assert f.v == pytest.approx(p.max_linear_mps)
+    post = scan_with([(0.33, 0.0)])  # right ahead, within the braking path
+    check = lambda c, d: s.check(post, RANGE_MIN, RANGE_MAX, c, d)  # noqa: E731
+    # the target is to the left: the command is a tight left arc that misses the post, but
+    # the robot still rolls straight on while it slows down: blocked, stopped at once
+    cmd = f.step(3.0, DT, 3.0, Aim(0.6, 5.0), 3.0, check)
+    assert cmd.state == BLOCKED and cmd.v == 0.0 and "obstacle" in cmd.reason
+    assert cmd.w > 0.0  # turning is allowed
+    # standing, the same tight arc is free: the robot drives it (straight ahead would not be)
+    assert s.check(post, RANGE_MIN, RANGE_MAX)[0]
+    cmd = f.step(3.1, DT, 3.1, Aim(0.6, 5.0), 3.1, check)
+    assert cmd.state == FOLLOWING and cmd.v > 0.0
+    # a target straight ahead: the commanded arc is the straight line: blocked
+    f2 = Follower(p)
+    cmd = f2.step(0.0, DT, 0.0, Aim(0.0, 5.0), 0.0, check)
+    assert cmd.state == BLOCKED and cmd.v == 0.0
+
+
 def test_rep117_ranges():
     s = sector()
     ahead = np.argmin(np.abs(ANGLES))

@@ -46,6 +46,15 @@ robot drives ``stop_distance_m`` forward, ahead of its centre (x >= 0): the rect
 [0, s] x [-R, R] and the half disc of radius R at (s, 0). The sector is the set of beams
 whose rays, from the laser's mount, pass through A outside the current footprint -- its
 width follows from the footprint, the stop distance and the mount, not a fixed angle.
+A robot turning through a door drives an arc, not the straight line ahead, and the wall
+beside the door is in front of it all the way in: ``check`` takes the path's curvature
+k = w / v [1/m] (positive: to the left) and a length, and A is then the footprint swept
+along that arc (discs of radius R centred on the arc every ``ARC_STEP_M``, x >= 0). The
+follower checks two arcs (``Follower.step``): the one its new command asks for, over
+``stop_distance_m``, and the one the robot is on now, over the distance it needs to stop
+from its present speed (one control period plus the braking distance v^2 / 2a): a command
+to turn away from a wall does not release the stop while the robot still rolls toward it.
+The beams of the straight sector decide blindness and -inf (below).
 Ranges per REP 117: a finite return in [range_min, range_max] whose end point lies in A
 blocks; -inf (an object closer than range_min) on a sector beam blocks; +inf and returns
 beyond range_max are "no object"; NaN and finite values below range_min are invalid, and
@@ -55,7 +64,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Callable, Optional, Tuple, Union
 
 import numpy as np
 
@@ -67,10 +76,15 @@ LOST = "lost"
 BLOCKED = "blocked"
 STALE = "stale"
 DISABLED = "disabled"
+# the safety stop's verdict on the newest scan: for any path, or a function of the path's
+# curvature [1/m] and length [m] returning (blocked, why) (SafetySector.check on that scan)
+PathCheck = Callable[[float, float], Tuple[bool, str]]
 # states in which the node sends a command every cycle (LOST and DISABLED: one zero)
 ACTIVE_STATES = (FOLLOWING, SEARCHING, BLOCKED, STALE)
 
 EPS_M = 1e-6  # [m] ray intervals shorter than this are empty
+ARC_STEP_M = 0.01  # [m] spacing of the footprint discs along a curved path
+MIN_CURVATURE_PER_M = 1e-3  # [1/m] flatter paths are straight (radius > 1 km)
 
 
 @dataclass
@@ -147,6 +161,7 @@ class Command:
     w: float
     state: str
     reason: str = ""
+    blocked: bool = False  # the safety stop cut the forward speed
 
 
 def clip(x: float, lo: float, hi: float) -> float:
@@ -236,13 +251,28 @@ class SafetySector:
         covered = (body[0] <= swept[0] + EPS_M) & (body[1] >= swept[1] - EPS_M)
         self.in_sector = nonempty & ~covered
 
-    def in_swept(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Whether base_link points lie in the swept region A (ahead of the centre)."""
-        cx = np.clip(x, 0.0, self.stop)
-        return (x >= 0.0) & (np.hypot(x - cx, y) <= self.radius)
+    def in_swept(self, x: np.ndarray, y: np.ndarray, curvature_per_m: float = 0.0,
+                 distance_m: Optional[float] = None) -> np.ndarray:
+        """Whether base_link points lie in the region the footprint sweeps (ahead of the
+        centre) along the arc of ``curvature_per_m`` for ``distance_m`` (default
+        ``stop_distance_m``; module doc)."""
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        s = self.stop if distance_m is None else max(float(distance_m), 0.0)
+        k = float(curvature_per_m)
+        if abs(k) < MIN_CURVATURE_PER_M:
+            cx = np.clip(x, 0.0, s)
+            return (x >= 0.0) & (np.hypot(x - cx, y) <= self.radius)
+        arc = np.linspace(0.0, s, int(math.ceil(s / ARC_STEP_M)) + 1)
+        ax, ay = np.sin(k * arc) / k, (1.0 - np.cos(k * arc)) / k
+        d2 = (x[..., None] - ax) ** 2 + (y[..., None] - ay) ** 2
+        return (x >= 0.0) & (d2.min(axis=-1) <= self.radius ** 2)
 
-    def check(self, ranges, range_min: float, range_max: float) -> Tuple[bool, str]:
-        """(blocked, why) for one scan's ranges [m] of this layout."""
+    def check(self, ranges, range_min: float, range_max: float,
+              curvature_per_m: float = 0.0, distance_m: Optional[float] = None
+              ) -> Tuple[bool, str]:
+        """(blocked, why) for one scan's ranges [m] of this layout, for the path of
+        ``curvature_per_m`` [1/m] over ``distance_m`` [m] (default: straight ahead over
+        ``stop_distance_m``)."""
         r = np.asarray(ranges, dtype=float)
         if r.shape != self.angles.shape:
             return True, "scan has %d beams, the sector was made for %d" % (r.size,
@@ -261,10 +291,10 @@ class SafetySector:
         rh = np.where(hit, r, 0.0)
         x = self.mount[0] + rh * np.cos(self.angles)
         y = self.mount[1] + rh * np.sin(self.angles)
-        inside = hit & self.in_swept(x, y)
-        if inside.any():
-            k = np.flatnonzero(inside)
-            nearest = k[np.argmin(np.hypot(x[k], y[k]))]
+        k = np.flatnonzero(hit)
+        inside = k[self.in_swept(x[k], y[k], curvature_per_m, distance_m)]
+        if inside.size:
+            nearest = inside[np.argmin(np.hypot(x[inside], y[inside]))]
             return True, "obstacle at (%.2f, %.2f) m in the path" % (x[nearest], y[nearest])
         return False, ""
 
@@ -284,12 +314,14 @@ class Follower:
         self.lost_since: Optional[float] = None
 
     def step(self, now_s: float, dt_s: float, target_stamp_s: Optional[float],
-             aim: Optional[Aim], scan_stamp_s: Optional[float], blocked: bool,
-             blocked_reason: str = "") -> Command:
+             aim: Optional[Aim], scan_stamp_s: Optional[float],
+             blocked: Union[bool, PathCheck], blocked_reason: str = "") -> Command:
         """One control cycle at ``now_s`` [s], ``dt_s`` [s] after the previous one.
         ``target_stamp_s``/``scan_stamp_s``: stamps of the newest target message and
         usable scan (None: none yet); ``aim``: the tracked target (None: not tracked);
-        ``blocked``: the safety sector's verdict on that scan."""
+        ``blocked``: the safety sector's verdict on that scan, for any path (a bool, with
+        ``blocked_reason``) or per path (``PathCheck``: the commanded arc and the arc the
+        robot is braking along are checked, module doc)."""
         p = self.p
         stale = self._stale(now_s, target_stamp_s, p.target_timeout_s, "target message")
         stale = stale or self._stale(now_s, scan_stamp_s, p.scan_timeout_s, "usable scan")
@@ -303,20 +335,26 @@ class Follower:
             self.last_bearing = aim.bearing_rad
             v, w = control_law(p, aim)
             reason = "to where the target was last seen"
-            if blocked:
+            is_blocked, why = self._blocked(blocked, blocked_reason, v, w, dt_s)
+            if is_blocked:
                 self.v = min(self.v, 0.0)
-                v, reason = min(v, 0.0), blocked_reason
-            return self._limited(v, w, dt_s, SEARCHING, reason)
+                v, reason = min(v, 0.0), why
+            cmd = self._limited(v, w, dt_s, SEARCHING, reason)
+            cmd.blocked = is_blocked
+            return cmd
         if aim is not None:
             self.last_bearing = aim.bearing_rad
             self.lost_since = None
             v, w = control_law(p, aim)
             state, reason = FOLLOWING, ""
-            if blocked:
+            is_blocked, blocked_reason = self._blocked(blocked, blocked_reason, v, w, dt_s)
+            if is_blocked:
                 self.v = min(self.v, 0.0)  # the safety stop acts at once
                 if v > 0.0:
                     v, state, reason = 0.0, BLOCKED, blocked_reason
-            return self._limited(v, w, dt_s, state, reason)
+            cmd = self._limited(v, w, dt_s, state, reason)
+            cmd.blocked = is_blocked
+            return cmd
         if self.last_bearing is None:
             self.v = self.w = 0.0
             return Command(0.0, 0.0, LOST, "no target acquired")
@@ -328,6 +366,20 @@ class Follower:
         self.v = 0.0
         return self._limited(0.0, w, dt_s, SEARCHING, "last bearing %.2f rad"
                              % self.last_bearing)
+
+    def _blocked(self, blocked: Union[bool, PathCheck], reason: str, v: float, w: float,
+                 dt_s: float) -> Tuple[bool, str]:
+        """The safety stop's verdict for the command (v, w) from the present motion."""
+        if not callable(blocked):
+            return bool(blocked), reason
+        if v > EPS_M:  # the arc the command asks for
+            hit, why = blocked(w / v, self.p.stop_distance_m)
+            if hit:
+                return True, why
+        if self.v > EPS_M:  # the arc the robot is on, as far as it rolls before it stops
+            rolls = self.v * max(dt_s, 0.0) + self.v ** 2 / (2.0 * self.p.max_linear_accel_mps2)
+            return blocked(self.w / self.v, rolls)
+        return False, ""
 
     def _search_timed_out(self, now_s: float) -> Optional[Command]:
         """The LOST command once the search started ``search_timeout_s`` ago, else None
