@@ -155,3 +155,16 @@ def test_aim_gives_the_target_speed_along_the_line_of_sight():
         aim = trk.aim(t, robot)
         expected = 0.3 * (xy[0] * math.sin(heading) + xy[1] * math.cos(heading)) / math.hypot(*xy)
         assert aim.range_rate_mps == pytest.approx(expected, abs=0.05)
+
+
+def test_innovation_is_the_distance_of_the_measurement_from_the_prediction():
+    trk = tracker(kinds="cone")
+    robot = (0.0, 0.0, 0.0)
+    track = trk.update(0.0, robot, [seen(robot, (2.0, 0.0))])
+    assert math.isnan(track.innovation_m)  # a new track has no prediction
+    for k in range(1, 20):  # walking at 0.3 m/s: the filter learns the velocity
+        track = trk.update(k * DT, robot, [seen(robot, (2.0 + 0.03 * k, 0.0))])
+    assert track.innovation_m < 0.03
+    track = trk.update(2.0, robot, [seen(robot, (2.6 + 0.3, 0.0))])  # 0.3 m too far
+    assert track.innovation_m == pytest.approx(0.3, abs=0.05)
+    assert track.seen[0] == pytest.approx(2.9)

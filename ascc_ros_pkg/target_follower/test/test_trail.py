@@ -129,3 +129,31 @@ def test_a_person_just_round_a_corner_is_followed_by_the_path_not_the_straight_l
         close.add(p)
     near = direct_aim(pose, (0.5, 0.3))
     assert close.aim(pose, (0.5, 0.3), near, distance_m=0.7) is near
+
+
+def test_a_position_far_from_the_prediction_is_not_a_trail_point():
+    tr = Trail(TrailParams(trail_max_innovation_m=0.25))
+    tr.add((0.0, 0.0), 0.02)
+    tr.add((0.5, 0.0), 0.3)  # a laser range off the target: 0.3 m from the prediction
+    tr.add((0.2, 0.0), 0.04)
+    tr.add((0.4, 0.0))  # innovation unknown (a new track): kept
+    assert tr.points == [(0.0, 0.0), (0.2, 0.0), (0.4, 0.0)]
+
+
+def test_held_by_the_safety_stop_on_the_trail_it_is_dropped():
+    p = TrailParams(trail_blocked_s=2.0)
+    tr = Trail(p)
+    for q in walked([(0.5, 0.0), (2.0, 0.0), (2.0, 1.5)]):
+        tr.add(q)
+    pose, target = (0.0, 0.0, 0.0), (2.0, 1.5)
+    tr.aim(pose, target, direct_aim(pose, target), 1.3)
+    assert tr.steering
+    assert not tr.note_blocked(10.0, True)
+    assert not tr.note_blocked(11.0, False)  # free again: the clock restarts
+    assert not tr.note_blocked(11.5, True)
+    assert not tr.note_blocked(13.4, True) and tr.points
+    assert tr.note_blocked(13.6, True) and not tr.points
+    # facing the target (no trail, not steering), a blocked robot keeps no clock
+    aim = tr.aim(pose, target, direct_aim(pose, target), 1.3)
+    assert not tr.steering and aim.bearing_rad == pytest.approx(math.atan2(1.5, 2.0))
+    assert not tr.note_blocked(20.0, True) and not tr.note_blocked(30.0, True)

@@ -104,6 +104,7 @@ class Track:
     vel: np.ndarray = field(default_factory=lambda: np.zeros(2))  # [m/s]
     seen: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))  # last measured
     # position [m, odom] (unfiltered: what the trail records)
+    innovation_m: float = math.nan  # |seen - predicted| at the last update [m] (NaN: none)
     updates: int = 1
 
     @property
@@ -227,6 +228,8 @@ class Tracker:
                 speed = float(np.hypot(*t.vel))
                 if speed > self.p.max_target_speed_mps:
                     t.vel = t.vel * (self.p.max_target_speed_mps / speed)
+        t.innovation_m = float(np.hypot(*(z - pred))) if t.has_position and \
+            np.all(np.isfinite(z)) and np.all(np.isfinite(pred)) else math.nan
         t.seen = np.array(z, dtype=float)
         t.t_s = stamp_s
         t.direction_rad = direction

@@ -64,6 +64,13 @@ class TrailParams:
                                 ge=0.0)
     trail_max_points: int = param(400, "keep at most this many trail points (the oldest "
                                        "go first)", gt=1)
+    trail_max_innovation_m: float = param(0.25, "[m] a measured position this far from "
+                                                "the track's prediction is not a trail "
+                                                "point (a laser range off the target)",
+                                          gt=0.0)
+    trail_blocked_s: float = param(2.0, "[s] held by the safety stop this long while "
+                                        "steering along the trail: the trail is dropped "
+                                        "(its next point is out of reach)", gt=0.0)
 
 
 class Trail:
@@ -72,9 +79,27 @@ class Trail:
     def __init__(self, p: TrailParams):
         self.p = p
         self.points: List[Point] = []
+        self.steering = False  # the last aim steered along the trail (not direct)
+        self.blocked_since: Optional[float] = None
 
     def clear(self) -> None:
         self.points = []
+        self.blocked_since = None
+
+    def note_blocked(self, now_s: float, blocked: bool) -> bool:
+        """The safety stop's verdict on the last command; True when it has held the robot
+        for ``trail_blocked_s`` while it steered along the trail: the trail is then
+        dropped (a point beside an obstacle, or a bad one, is out of reach) and the robot
+        faces the target until a new trail is laid."""
+        if not (blocked and self.steering and self.points):
+            self.blocked_since = None
+            return False
+        if self.blocked_since is None:
+            self.blocked_since = now_s
+        if now_s - self.blocked_since < self.p.trail_blocked_s:
+            return False
+        self.clear()
+        return True
 
     def restart(self, xy: Point) -> None:
         """A new track starts at ``xy``: continue the trail when ``xy`` is within
@@ -85,10 +110,13 @@ class Trail:
             self.clear()
         self.add(xy)
 
-    def add(self, xy: Point) -> None:
-        """The target's estimated position [m, odom]; kept when ``trail_spacing_m`` from
-        the last point."""
+    def add(self, xy: Point, innovation_m: float = math.nan) -> None:
+        """The target's measured position [m, odom]; kept when ``trail_spacing_m`` from
+        the last point and, when ``innovation_m`` (its distance from the track's
+        prediction) is known, within ``trail_max_innovation_m`` of the prediction."""
         if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
+            return
+        if math.isfinite(innovation_m) and innovation_m > self.p.trail_max_innovation_m:
             return
         if self.points and math.hypot(xy[0] - self.points[-1][0],
                                       xy[1] - self.points[-1][1]) < self.p.trail_spacing_m:
@@ -126,12 +154,14 @@ class Trail:
         last seen (``Aim.searching``), its range ``distance_m`` + the path length so that
         the control law drives all the way; None when there is no trail or its end is
         reached (the trail is then cleared)."""
+        self.steering = False
         if not self.p.follow_trail:
             return None
         robot = (pose[0], pose[1])
         self.prune(robot)
         if not self.points:
             return None
+        self.steering = True
         end = self.points[-1]
         rng = self.path_length(robot, end)
         if rng <= self.p.trail_reached_m:
@@ -148,6 +178,7 @@ class Trail:
         is off. ``pose``: the robot's (x, y, yaw) in odom; ``target_xy``: the target now;
         ``velocity``: its velocity [m/s, odom], whose component along the trail's last
         leg is the rate at which the path lengthens."""
+        self.steering = False
         if not self.p.follow_trail or not math.isfinite(direct.range_m):
             return direct
         robot = (pose[0], pose[1])
@@ -155,6 +186,7 @@ class Trail:
         rng = self.path_length(robot, target_xy)
         if rng <= distance_m or direct.range_m <= self.p.direct_within_m:
             return direct  # close enough along the path, or too close straight: face it
+        self.steering = bool(self.points)
         sx, sy = self.steer_point(robot, target_xy)
         bearing = wrap_angle(math.atan2(sy - pose[1], sx - pose[0]) - pose[2])
         rate = direct.range_rate_mps

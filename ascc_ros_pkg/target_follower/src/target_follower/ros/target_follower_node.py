@@ -5,8 +5,10 @@ Subscribes ``target`` (target_follower/Target, the detector's frames), ``scan``
 (nav_msgs/Odometry, the base's pose). Publishes ``cmd_vel`` (geometry_msgs/Twist; launch
 files remap it, e.g. to ``follower/cmd_vel`` in front of a mux), ``~state``
 (std_msgs/String, latched, on change: following / searching / lost / blocked / stale /
-disabled) and ``~followed`` (geometry_msgs/PointStamped, the tracked target predicted to
-now, in the odometry frame). Service ``~enable`` (std_srvs/SetBool; ``~start_enabled``).
+disabled), ``~followed`` (geometry_msgs/PointStamped, the tracked target predicted to now,
+in the odometry frame) and ``~trail`` (nav_msgs/Path, the target's trail the robot steers
+along, odometry frame, while subscribed). Service ``~enable`` (std_srvs/SetBool;
+``~start_enabled``).
 
 Callbacks only store the newest input; a timer at ``~rate_hz`` runs the tracker
 (target_follower.tracker: which detection is the followed target, in odom), the safety
@@ -15,13 +17,14 @@ while following, searching, blocked or stale (zero when the target or the scan i
 one zero when the robot stops (lost) or is disabled, then nothing, so that cmd_vel is free
 for others. Parameters: ``target_follower.following.TargetFollowerParams`` (package README).
 """
+import functools
 import threading
 
 import numpy as np
 import rospy
 import tf2_ros
-from geometry_msgs.msg import PointStamped, Twist
-from nav_msgs.msg import Odometry
+from geometry_msgs.msg import PointStamped, PoseStamped, Twist
+from nav_msgs.msg import Odometry, Path
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, SetBoolResponse
@@ -61,7 +64,8 @@ class TargetFollowerNode:
         self.target_stamp = None  # [s] of the newest Target message
         self.scan_msg = None  # newest scan, not yet checked
         self.scan_stamp = None  # [s] of the newest usable scan
-        self.blocked, self.blocked_reason = True, "no scan yet"
+        # the safety sector on the newest usable scan: (curvature, length) -> (blocked, why)
+        self.path_check = lambda _k, _d: (True, "no scan yet")
         self.sectors = {}  # (frame, beams, angle_min, increment) -> SafetySector
         self.odom_frame = "odom"
         self.state = None
@@ -72,6 +76,7 @@ class TargetFollowerNode:
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
         self.point_pub = rospy.Publisher("~followed", PointStamped, queue_size=1)
+        self.trail_pub = rospy.Publisher("~trail", Path, queue_size=1)
         rospy.Subscriber("target", Target, self.on_target, queue_size=1)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
         rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=10)
@@ -124,14 +129,21 @@ class TargetFollowerNode:
             pose = self.odom.newest() or (0.0, 0.0, 0.0)
             aim = self._aim(t, pose)
             cmd = self.follower.step(t, dt, self.target_stamp, aim, self.scan_stamp,
-                                     self.blocked, self.blocked_reason)
+                                     self.path_check)
             if cmd.state in ACTIVE_STATES or cmd.state != self.state:
                 self._send(cmd.v, cmd.w)
             self._set_state(cmd.state, cmd.reason)
             if cmd.state == LOST:
                 self.trail.clear()
+            elif self.trail.note_blocked(t, cmd.blocked):
+                rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: held by the safety "
+                                       "stop for %.1f s on the target's trail (%s): trail "
+                                       "dropped, facing the target"
+                                       % (self.p.trail.trail_blocked_s, cmd.reason))
             if self.tracker.track is not None:
                 self._publish_point(now, self.tracker.track.predicted(t))
+            if self.trail_pub.get_num_connections() > 0:
+                self._publish_trail(now)
 
     def _aim(self, t, pose):
         """The tracked target predicted to ``t``, steered along its trail (trail.py)."""
@@ -202,7 +214,7 @@ class TargetFollowerNode:
                 self.trail.restart(track.seen)
                 self.trail_track_id = track.id
             else:
-                self.trail.add(track.seen)
+                self.trail.add(track.seen, track.innovation_m)
         self.target_stamp = t if self.target_stamp is None else max(self.target_stamp, t)
 
     def _take_scan(self, now):
@@ -220,8 +232,8 @@ class TargetFollowerNode:
                 rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: scan unusable: %s"
                                        % problem)
             return
-        self.blocked, self.blocked_reason = sector.check(scan.ranges, scan.range_min,
-                                                         scan.range_max)
+        self.path_check = functools.partial(sector.check, np.asarray(scan.ranges, float),
+                                            scan.range_min, scan.range_max)
         self.scan_stamp = scan.stamp
 
     def _sector(self, msg):
@@ -255,6 +267,18 @@ class TargetFollowerNode:
         msg.header.frame_id = self.odom_frame if self.odom.newest() else self.p.base_frame
         msg.point.x, msg.point.y = float(xy[0]), float(xy[1])
         self.point_pub.publish(msg)
+
+    def _publish_trail(self, now):
+        msg = Path()
+        msg.header.stamp = now
+        msg.header.frame_id = self.odom_frame
+        for x, y in self.trail.points:
+            ps = PoseStamped()
+            ps.header = msg.header
+            ps.pose.position.x, ps.pose.position.y = x, y
+            ps.pose.orientation.w = 1.0
+            msg.poses.append(ps)
+        self.trail_pub.publish(msg)
 
     def _send(self, v, w):
         cmd = Twist()
