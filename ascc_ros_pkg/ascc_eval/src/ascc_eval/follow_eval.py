@@ -53,8 +53,9 @@ class FollowMonitorParams:
     sample_period_s: float = param(0.1, "[s] period of the samples", gt=0.0)
     max_time_s: float = param(0.0, "[s] end the run after this much time; 0: no limit",
                               ge=0.0)
-    end_after_stop_s: float = param(5.0, "[s] end the run this long after the person's "
-                                         "route ended (it stopped for good)", ge=0.0)
+    end_after_stop_s: float = param(10.0, "[s] end the run when the person has stood "
+                                          "this long (longer than any stop on a route: "
+                                          "its route ended)", ge=0.0)
     shutdown_when_finished: bool = param(True, "exit when the run ends")
 
 
