@@ -19,12 +19,12 @@ through (a person is wider than an iRobot Create), so the follower steers along 
 Inside the set distance along the path, or nearer than ``direct_within_m`` in a straight
 line, the robot faces the target itself (thesis 5.3: keep it in the middle of the view).
 Right after a person turns a corner the straight line is shorter than the path (0.85 m
-against 1.2 m half-way through a right-angle turn). With ``direct_within_m`` at the set
-distance (1.3 m, the default) the robot waits at each corner while the person walks on and
-falls ~1 m behind (straight-segment error 0.61 m over 5 seeds) but lost nobody; at 0.9 m
-the path decides the speed round the corner and the error drops to 0.04-0.06 m, but in 2
-of 5 seeds the faster robot swung wide at a door, was held by the safety stop (17 s) and
-lost the person (docs/results/target_follower.md). When the
+against 1.2 m half-way through a right-angle turn): with ``direct_within_m`` at the set
+distance (1.3 m) the robot waited at each corner and fell ~1 m behind (straight-segment
+error 0.61 m over 5 seeds); at 0.9 m (the default) the path decides the speed round the
+corner. That needed a trail without bad points (``trail_max_innovation_m``), a way out
+when a trail point is out of reach (``note_blocked``) and a safety stop along the arc
+being driven (follower.py): docs/results/target_follower.md. When the
 target is lost from view (a person turning through a door is hidden by the wall), the
 robot drives along the trail to where it was last seen and looks there (``search_aim``);
 a target found again near the trail's end continues the trail (``restart``). Pure: no
@@ -55,9 +55,8 @@ class TrailParams:
                                           "least this far away", gt=0.0)
     trail_reached_m: float = param(0.3, "[m] trail points this close to the robot are "
                                         "passed", gt=0.0)
-    direct_within_m: float = param(1.3, "[m] straight range below which the robot faces "
-                                        "the target whatever the path (module doc: 0.9 "
-                                        "follows closer, 1.3 is the robust default)",
+    direct_within_m: float = param(0.9, "[m] straight range below which the robot faces "
+                                        "the target whatever the path (module doc)",
                                    gt=0.0)
     trail_join_m: float = param(2.0, "[m] a target found again this close to the trail's "
                                      "end continues the trail (farther: a new trail)",
