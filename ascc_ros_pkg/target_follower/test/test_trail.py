@@ -157,3 +157,24 @@ def test_held_by_the_safety_stop_on_the_trail_it_is_dropped():
     aim = tr.aim(pose, target, direct_aim(pose, target), 1.3)
     assert not tr.steering and aim.bearing_rad == pytest.approx(math.atan2(1.5, 2.0))
     assert not tr.note_blocked(20.0, True) and not tr.note_blocked(30.0, True)
+
+
+def test_a_target_that_walks_back_restarts_the_trail():
+    """It walked 3 m away and back to 1.25 m straight ahead: the trail (out to 3 m and
+    back) is a 3.5 m detour; the robot faces it and the trail starts again at it."""
+    tr = Trail(TrailParams(trail_max_detour_m=1.0))
+    pose = (0.0, 0.0, 0.0)
+    for q in walked([(3.0, 0.0), (1.4, 0.0)]):
+        tr.add(q)
+    target = (1.25, 0.0)
+    aim = tr.aim(pose, target, direct_aim(pose, target), 1.3)
+    assert aim.range_m == pytest.approx(1.25) and not tr.steering
+    assert tr.points == [target]
+    # round a corner the detour is small: the trail is kept
+    tr = Trail(TrailParams(trail_max_detour_m=1.0))
+    for q in walked([(0.3, 0.0), (0.9, 0.0), (0.9, 0.6)]):
+        tr.add(q)
+    target = (0.9, 0.65)
+    n = len(tr.points)
+    tr.aim(pose, target, direct_aim(pose, target), 1.3)
+    assert len(tr.points) >= n - 3

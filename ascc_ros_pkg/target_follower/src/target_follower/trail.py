@@ -22,7 +22,9 @@ Right after a person turns a corner the straight line is shorter than the path (
 against 1.2 m half-way through a right-angle turn): with ``direct_within_m`` at the set
 distance (1.3 m) the robot waited at each corner and fell ~1 m behind (straight-segment
 error 0.61 m over 5 seeds); at 0.9 m (the default) the path decides the speed round the
-corner. That needed a trail without bad points (``trail_max_innovation_m``), a way out
+corner. A target that walks back toward the robot (nearer than the set distance in a
+straight line, the trail ``trail_max_detour_m`` longer) restarts the trail at itself. That
+needed a trail without bad points (``trail_max_innovation_m``), a way out
 when a trail point is out of reach (``note_blocked``) and a safety stop along the arc
 being driven (follower.py): docs/results/target_follower.md. When the
 target is lost from view (a person turning through a door is hidden by the wall), the
@@ -67,6 +69,11 @@ class TrailParams:
                                                 "the track's prediction is not a trail "
                                                 "point (a laser range off the target)",
                                           gt=0.0)
+    trail_max_detour_m: float = param(1.0, "[m] the target nearer than the set distance "
+                                           "in a straight line while the path along the "
+                                           "trail is this much longer: it came back (the "
+                                           "trail is restarted at it, the robot faces it)",
+                                      gt=0.0)
     trail_blocked_s: float = param(2.0, "[s] held by the safety stop this long while "
                                         "steering along the trail: the trail is dropped "
                                         "(its next point is out of reach)", gt=0.0)
@@ -183,6 +190,10 @@ class Trail:
         robot = (pose[0], pose[1])
         self.prune(robot)
         rng = self.path_length(robot, target_xy)
+        if direct.range_m <= distance_m and rng > direct.range_m + self.p.trail_max_detour_m:
+            self.clear()  # the target walked back toward the robot: the trail is a detour
+            self.add(target_xy)
+            return direct
         if rng <= distance_m or direct.range_m <= self.p.direct_within_m:
             return direct  # close enough along the path, or too close straight: face it
         self.steering = bool(self.points)
