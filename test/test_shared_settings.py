@@ -11,6 +11,7 @@ import yaml
 
 from ascc_common.params import from_params, tree_getter
 from ascc_navigation.navigation import MoveBaseParams, NavParams
+from irobot_create_2_1.models import model
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PKG = os.path.join(ROOT, "ascc_ros_pkg")
@@ -42,8 +43,11 @@ def test_cmd_timeout_defaults_agree():
 
 
 def test_wheel_base_of_driver_and_simulated_create_agree():
-    assert _yaml("irobot_create_2_1", "config", "create.yaml")["wheel_base_m"] \
-        == _yaml("ascc_sim", "config", "asccbot.yaml")["wheel_base_m"]
+    # the driver's 0 means its robot model's wheel base (the simulated ASCCbot's default
+    # model is the Create 1; a create_2 robot in a world file takes the Create 2's)
+    driver = _yaml("irobot_create_2_1", "config", "create.yaml")
+    wheel_base_m = driver["wheel_base_m"] or model(driver["robot_model"]).wheel_base_m
+    assert wheel_base_m == _yaml("ascc_sim", "config", "asccbot.yaml")["wheel_base_m"]
 
 
 def test_move_base_costmaps_agree_and_the_stand_in_reads_them():

@@ -1,4 +1,6 @@
-"""The emulated first-generation iRobot Create's state and physics (pure Python, no bytes).
+"""The emulated iRobot Create's state and physics (pure Python, no bytes): the
+first-generation Create, or the Create 2 (``robot=models.CREATE_2``: wheel encoders, light
+bumpers, motor currents, stasis).
 
 :class:`CreateState` holds what the robot is: OI mode, commanded wheels and the requested
 values of packets 39..42, the pose integrated from wheel travel, the odometry accumulators
@@ -25,6 +27,9 @@ Behaviour choices where the spec is silent or where we deliberately differ:
   (``last_demo``, ``demo_running``, ``docking_requested``), but the built-in behaviours
   are not emulated: the wheels stay still.
 * When the battery charge reaches 0 the motors stop and Drive commands are ignored.
+* Create 2: the encoder counts follow the wheels' travel, so they agree with the pose;
+  :meth:`CreateState.set_stuck` holds the body still while the wheels keep turning (a
+  robot high-centred or pushing an obstacle): encoders count, stasis stays still.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from typing import Dict, List, Optional, Tuple
 
 from ascc_common.pose2d import wrap_angle
 from irobot_create_2_1 import protocol
+from irobot_create_2_1.models import CREATE_1, ENCODER_MODULUS, RobotModel
 
 # OI modes, values as in sensor packet 35.
 OFF, PASSIVE, SAFE, FULL = 0, 1, 2, 3
@@ -64,6 +70,8 @@ BATTERY_TEMPERATURE_C = 25
 CHARGING_NOT, CHARGING_FULL, CHARGING_TRICKLE = 0, 2, 3
 
 EPS = 1e-9
+STASIS_MIN_SPEED_M_S = 0.01      # the stasis wheel toggles above this forward speed [m/s]
+BAUD_CODES = {57600: 10, 115200: 11}
 
 LedState = namedtuple("LedState", "play advance power_color power_intensity")
 """LEDs as last set by the LEDs command (play/advance bools, power color/intensity 0..255)."""
@@ -118,10 +126,14 @@ class CreateState:
     Not thread-safe: call it from one thread (or hold a lock).
     """
 
-    def __init__(self, wheel_base_m: float = 0.258, battery_capacity_mah: float = 2700.0,
-                 initial_charge_mah: Optional[float] = None, max_wheel_speed_mm_s: float = 500):
+    def __init__(self, wheel_base_m: Optional[float] = None,
+                 battery_capacity_mah: float = 2700.0,
+                 initial_charge_mah: Optional[float] = None, max_wheel_speed_mm_s: float = 500,
+                 robot: RobotModel = CREATE_1):
+        wheel_base_m = robot.wheel_base_m if wheel_base_m is None else wheel_base_m
         if wheel_base_m <= 0 or max_wheel_speed_mm_s <= 0:
             raise ValueError("wheel_base_m and max_wheel_speed_mm_s must be > 0")
+        self.robot = robot
         self.wheel_base_m = float(wheel_base_m)
         self.max_wheel_speed_mm_s = float(max_wheel_speed_mm_s)
         self.battery = Battery(battery_capacity_mah, initial_charge_mah)
@@ -141,6 +153,14 @@ class CreateState:
         # Odometry accumulators read (and reset) by packets 19/20.
         self._distance_acc_mm = 0.0
         self._angle_acc_deg = 0.0
+        # Create 2: wheel turning in encoder counts (floats; packets 43/44 floor them),
+        # light bump signals 46..51, stasis; set_stuck holds the body while wheels turn.
+        self._counts_per_m = (1.0 / robot.metres_per_count if robot.encoder_odometry
+                              else 0.0)
+        self._counts = [0.0, 0.0]
+        self.light_bump_signals = [0] * 6
+        self.stasis_toggling = False
+        self.stuck = False
 
         # Sensors the simulator or a test sets.
         self.bump_left = self.bump_right = False
@@ -167,7 +187,7 @@ class CreateState:
         self.last_demo: Optional[int] = None
         self.demo_running = False
         self.docking_requested = False
-        self.baud_code = 10                    # 57600 baud, the Create's default
+        self.baud_code = BAUD_CODES[robot.baud]  # the model's default baud
         self.low_side_drivers = 0
         self.pwm_low_side = (0, 0, 0)          # duty cycles of drivers 2, 1, 0 (0..128)
         self.digital_outputs = 0
@@ -244,6 +264,36 @@ class CreateState:
         self.cargo_digital_inputs = int(digital_bits) & 0x1F
         self.cargo_analog_input = int(clamp(int(analog), 0, 1023))
         self._sensors_changed()
+
+    def set_light_bumps(self, signals) -> None:
+        """Create 2: the six light bump signals (left .. right, 0..4095)."""
+        if len(signals) != 6:
+            raise ValueError("six light bump signals needed, got %d" % len(signals))
+        self.light_bump_signals = [int(clamp(int(v), 0, 4095)) for v in signals]
+        self._sensors_changed()
+
+    def set_stuck(self, stuck: bool) -> None:
+        """Hold the body still while the wheels keep turning (stasis test)."""
+        self.stuck = bool(stuck)
+
+    @property
+    def encoder_counts(self) -> Tuple[int, int]:
+        """Packets 43/44: whole counts of each wheel, rolled over into a signed int16."""
+        def wrap(c: float) -> int:
+            n = math.floor(c) % ENCODER_MODULUS
+            return n - ENCODER_MODULUS if n >= ENCODER_MODULUS // 2 else n
+        return wrap(self._counts[0]), wrap(self._counts[1])
+
+    def set_encoder_counts(self, left: float, right: float) -> None:
+        """Place the encoder counters (e.g. just below the rollover, for tests)."""
+        self._counts = [float(left), float(right)]
+
+    @property
+    def wheel_motor_currents_ma(self) -> Tuple[float, float]:
+        """Packets 54/55: the battery model's per-wheel motor current, signed like the
+        wheel's commanded speed [mA]."""
+        left, right = self.wheel_speed_cmd_mps
+        return MOTOR_CURRENT_MA_PER_MPS * left, MOTOR_CURRENT_MA_PER_MPS * right
 
     def _sensors_changed(self) -> None:
         self._check_safety()
@@ -381,7 +431,12 @@ class CreateState:
         left_mps, right_mps = self.wheel_speed_cmd_mps
         if travel is None:
             travel = (left_mps * h, right_mps * h)
+        self._counts[0] += travel[0] * self._counts_per_m
+        self._counts[1] += travel[1] * self._counts_per_m
+        if self.stuck:
+            travel = (0.0, 0.0)
         moved = self._integrate(travel[0], travel[1], h)
+        self.stasis_toggling = self.body_velocity[0] > STASIS_MIN_SPEED_M_S
         self.battery.update(h, left_mps, right_mps, self.charger_present())
         if self.battery.empty:
             self._stop_motors()

@@ -8,11 +8,14 @@ from typing import Dict, List, Optional, Tuple
 from ascc_common.params import param
 
 from . import kinematics, protocol
+from .model_check import MISMATCH, ModelCheck
+from .models import CREATE_1, EncoderOdometry, RobotModel
 from .odometry import Odometry
 from .sensor_state import hazards, increments_si
 
-#: Packets the driver streams: group 6 = every packet 7..42 (52 data bytes per frame).
-STREAM_PACKETS = (6,)
+#: Packets the Create 1 driver streams: group 6 = every packet 7..42 (52 data bytes per
+#: frame); the Create 2's are ``models.CREATE_2.stream_packets`` (group 100, 7..58).
+STREAM_PACKETS = CREATE_1.stream_packets
 
 
 class StreamClock:
@@ -66,7 +69,9 @@ class DriverParams:
     """Everything the driver node reads (private parameters)."""
 
     port: str = param("/dev/ttyUSB0", "serial device (or a virtual Create's pty)")
-    baud: int = param(57600, "[baud] OI baud rate")
+    robot_model: str = param("create_1", "create_1 or create_2: protocol, baud, packets, "
+                             "geometry", choices=("create_1", "create_2"))
+    baud: int = param(0, "[baud] OI baud rate; 0: the model's (57600 / 115200)", ge=0)
     mode: str = param("safe", "safe or full (full disables the cliff/wheel-drop stop)",
                       choices=("safe", "full"))
     cmd_timeout_s: float = param(0.5, "[s] no command for this long -> wheels stopped",
@@ -74,31 +79,53 @@ class DriverParams:
     cmd_rate_hz: float = param(20.0, "[Hz] wheel commands are (re)sent at this rate")
     publish_rate_hz: float = param(30.0, "[Hz] cap on odom/TF/sensorPacket/hazards")
     sensor_timeout_s: float = param(1.0, "[s] no stream frame for this long -> restart it")
-    wheel_base_m: float = param(0.258, "[m] wheel separation for twist -> wheel speeds")
+    wheel_base_m: float = param(0.0, "[m] wheel separation; 0: the model's (0.258 / 0.235)",
+                                ge=0.0)
     max_wheel_speed_m_s: float = param(0.5, "[m/s] per-wheel limit")
     stop_on_bump: bool = param(True, "a pressed bumper removes forward motion")
+    light_bump_speed_m_s: float = param(0.0, "[m/s] create_2: forward speed cap while a "
+                                        "light bumper sees something; 0: off", ge=0.0)
+    stuck_after_s: float = param(1.0, "[s] create_2: wheels driving forward this long with "
+                                 "the stasis sensor still -> stuck warning", gt=0.0)
     publish_tf: bool = param(True, "broadcast odom_frame -> base_frame")
     odom_frame: str = param("odom", "odometry frame")
     base_frame: str = param("base_link", "robot frame")
 
 
 class CreateDriverCore:
-    def __init__(self, wheel_base_m: float = 0.258, mode: str = "safe",
+    """``robot``: the model (:mod:`.models`); ``wheel_base_m`` None or 0 takes its wheel
+    base, ``baud`` None its baud rate (the start-up model check names it).
+    ``light_bump_speed_m_s`` > 0 caps forward speed while a light bumper (Create 2) sees
+    something; ``stuck_after_s``: see :meth:`stuck`."""
+
+    def __init__(self, wheel_base_m: Optional[float] = None, mode: str = "safe",
                  cmd_timeout_s: float = 0.5, stop_on_bump: bool = True,
                  max_wheel_speed_m_s: float = 0.5, resend_period_s: float = 0.5,
-                 odometry: Optional[Odometry] = None):
+                 odometry: Optional[Odometry] = None, robot: RobotModel = CREATE_1,
+                 baud: Optional[int] = None, light_bump_speed_m_s: float = 0.0,
+                 stuck_after_s: float = 1.0):
         if mode not in ("safe", "full"):
             raise ValueError("mode must be 'safe' or 'full', got %r" % (mode,))
         if cmd_timeout_s <= 0:
             raise ValueError("cmd_timeout_s must be > 0, got %r" % (cmd_timeout_s,))
-        self.wheel_base_m = wheel_base_m
+        self.robot = robot
+        self.wheel_base_m = wheel_base_m or robot.wheel_base_m
+        self.baud = baud or robot.baud
         self.mode = mode
         self.cmd_timeout_s = cmd_timeout_s
         self.stop_on_bump = stop_on_bump
         self.max_wheel_speed_m_s = max_wheel_speed_m_s
         self.resend_period_s = resend_period_s
-        self.parser = protocol.StreamParser(STREAM_PACKETS)
+        self.light_bump_speed_m_s = light_bump_speed_m_s
+        self.stuck_after_s = stuck_after_s
+        self.parser = protocol.StreamParser(robot.stream_packets, robot.packet_ids)
+        self.model_check = ModelCheck(robot, self.baud)
+        self._held: List[Tuple[Dict[int, int], float]] = []  # frames while the check runs
+        self.encoders = (EncoderOdometry(robot, self.wheel_base_m)
+                         if robot.encoder_odometry else None)
         self.odom = odometry or Odometry()
+        self._forward_since: Optional[float] = None  # wheels driving forward, no stasis
+        self.light_bump_slowdowns = 0
         self.values: Dict[int, int] = {}
         self.last_frame_time: Optional[float] = None  # when the newest frame arrived
         self.stream_clock = StreamClock()
@@ -121,24 +148,53 @@ class CreateDriverCore:
         every (re)connection; the wheels start stopped."""
         self._sent = None
         self.stream_clock.reset()
+        if self.encoders is not None:
+            self.encoders.reset()  # the robot may have been power-cycled: new reference
         mode = protocol.safe() if self.mode == "safe" else protocol.full()
         return (protocol.start() + mode + protocol.drive_direct(0, 0)
-                + protocol.stream(STREAM_PACKETS))
+                + protocol.stream(self.robot.stream_packets, self.robot.packet_ids))
 
     # --- sensors --------------------------------------------------------------------
+    @property
+    def mismatch(self) -> bool:
+        """The start-up check found another model (``model_check.message`` says why)."""
+        return self.model_check.state == MISMATCH
+
     def on_bytes(self, data: bytes, now: float) -> List[Dict[int, int]]:
-        """Feed bytes from the robot; complete frames update odometry and the state."""
-        frames = self.parser.feed(data)
-        stamps = self.stream_clock.stamps(len(frames), now)
+        """Feed bytes from the robot; complete frames update odometry and the state.
+
+        Until the model check passes, frames are held back (none reaches odometry or
+        ``values``); they are used once it passes and dropped on a mismatch, after which
+        nothing more is decoded."""
         self.frame_poses = []
-        for values, stamp in zip(frames, stamps):
-            distance_m, dtheta_rad = increments_si(values)
-            self.odom.update(distance_m, dtheta_rad)
+        if self.mismatch:
+            return []
+        frames = [f for f in self.parser.feed(data) if self.model_check.accept(f)]
+        stamps = self.stream_clock.stamps(len(frames), now)
+        if self.model_check.pending:
+            if self.model_check.on_bytes(len(data), self.parser, now) == MISMATCH:
+                self._held = []
+                return []
+            self._held += list(zip(frames, stamps))
+            if self.model_check.pending:
+                return []
+        batch, self._held = self._held + list(zip(frames, stamps)), []
+        for values, stamp in batch:
+            self._integrate(values)
             self.values.update(values)
             self.frame_poses.append((stamp, self.odom.pose))
-        if frames:
+        if batch:
             self.last_frame_time = now
-        return frames
+        return [values for values, _ in batch]
+
+    def _integrate(self, values: Dict[int, int]) -> None:
+        if self.encoders is None:
+            distance_m, dtheta_rad = increments_si(values)
+        elif 43 in values and 44 in values:
+            distance_m, dtheta_rad = self.encoders.update(values[43], values[44])
+        else:
+            return
+        self.odom.update(distance_m, dtheta_rad)
 
     @property
     def last_frame_stamp(self) -> Optional[float]:
@@ -196,6 +252,8 @@ class CreateDriverCore:
         v, w = self._twist
         if self.stop_on_bump and v > 0.0 and self.bumped():
             v = 0.0  # keep turning so the robot can get away from what it hit
+        elif 0.0 < self.light_bump_speed_m_s < v and self.values.get(45, 0):
+            v = self.light_bump_speed_m_s  # something ahead: slow down before the bump
         cmd = kinematics.twist_to_wheels(v, w, self.wheel_base_m, self.max_wheel_speed_m_s)
         return cmd.left_mm_s, cmd.right_mm_s
 
@@ -205,6 +263,10 @@ class CreateDriverCore:
         target = self.target_wheels(now)
         if target == self._sent and now - self._sent_time < self.resend_period_s:
             return None
+        if (self.light_bump_speed_m_s > 0.0 and self.values.get(45, 0)
+                and target != self._sent and not self.command_stale(now)
+                and 0.0 < self.light_bump_speed_m_s < self._twist[0]):
+            self.light_bump_slowdowns += 1
         if target == (0, 0) and self._sent not in (None, (0, 0)):
             if self.command_stale(now):
                 self.watchdog_stops += 1
@@ -216,3 +278,19 @@ class CreateDriverCore:
     @property
     def sent_wheels(self) -> Optional[Tuple[int, int]]:
         return self._sent
+
+    # --- Create 2: stasis -------------------------------------------------------------
+    def stuck(self, now: float) -> bool:
+        """Create 2: both wheels have been driven forward (sent speeds) for
+        ``stuck_after_s`` while the stasis sensor (packet 58, caster) reports no forward
+        progress and is not disabled. False on a Create 1 (no packet 58)."""
+        stasis = self.values.get(58)
+        sent = self._sent or (0, 0)
+        moving = min(sent) > 0
+        if (stasis is None or not moving or stasis & protocol.STASIS_TOGGLING
+                or stasis & protocol.STASIS_DISABLED):
+            self._forward_since = None
+            return False
+        if self._forward_since is None:
+            self._forward_since = now
+        return now - self._forward_since >= self.stuck_after_s

@@ -1,6 +1,6 @@
-"""Sensor packets of the emulated Create: the value of every packet 7..42 read from a
-:class:`irobot_create_2_1.create_state.CreateState`, the reply bytes of Sensors/Query List
-and the frames of the 15 ms stream (pure Python).
+"""Sensor packets of the emulated Create: the value of every packet 7..42 (Create 1) or
+7..58 (Create 2) read from a :class:`irobot_create_2_1.create_state.CreateState`, the reply
+bytes of Sensors/Query List and the frames of the 15 ms stream (pure Python).
 
 Packet sizes, signedness, groups and the frame format come from
 :mod:`irobot_create_2_1.protocol`; this module only decides the *values*.
@@ -15,12 +15,18 @@ Behaviour choices where the spec is silent or where we deliberately differ:
   needs; the value of each single read is still an integer, clamped to int16 as the spec says
   (the part beyond the clamp is lost, as on the robot).
 * A value outside its packet's range is clamped to it.
-* Sensors/Query List with an id outside 0..42 sends nothing for that id; Stream skips such
-  ids; a stream frame is limited to 255 data bytes (N-bytes is one byte), later ids are
-  left out.
+* Sensors/Query List with an id the model does not know (Create 1: outside 0..42) sends
+  nothing for that id; Stream skips such ids; a stream frame is limited to 255 data bytes
+  (N-bytes is one byte), later ids are left out.
+* Create 2: encoder counts (43/44) count the wheels' turning (whole counts, the remainder
+  carried), rolling over at 16 bits; the light bumper bits (45) are set when a signal
+  (46..51) reaches ``LIGHT_BUMP_THRESHOLD`` (the spec gives no threshold); wheel motor
+  currents (54/55) follow the battery model's per-wheel current with the wheel's sign;
+  the brush motors (56/57) are off; stasis (58) toggles while the body moves forward.
+  Packets 15 (dirt), 52/53 (IR left/right) read 0.
 """
 
-from typing import Callable, Dict, Sequence
+from typing import Callable, Dict, FrozenSet, Sequence
 
 from irobot_create_2_1 import protocol
 from irobot_create_2_1.create_state import CreateState, clamp
@@ -29,11 +35,12 @@ from irobot_create_2_1.create_state import CreateState, clamp
 CLIFF_SIGNAL_FLOOR = 1500
 CLIFF_SIGNAL_CLIFF = 20
 MAX_FRAME_DATA_BYTES = 255
+LIGHT_BUMP_THRESHOLD = 100       # light bumper bit set from this signal (0..4095) on
 
 
-def is_valid_request(pid: int) -> bool:
-    """A packet id (7..42) or group id (0..6) the Create answers."""
-    return pid in protocol.PACKETS or pid in protocol.GROUPS
+def is_valid_request(pid: int, valid: FrozenSet[int] = protocol.CREATE_1_IDS) -> bool:
+    """A packet or group id the model (its id set ``valid``) answers."""
+    return pid in valid
 
 
 def cliff_signal(cliff: bool) -> int:
@@ -85,20 +92,39 @@ def packet_values(robot: CreateState) -> Dict[int, Callable[[], int]]:
         40: lambda: robot.requested_radius_mm,
         41: lambda: robot.requested_right_mm_s,
         42: lambda: robot.requested_left_mm_s,
+        # Create 2
+        43: lambda: robot.encoder_counts[0],
+        44: lambda: robot.encoder_counts[1],
+        45: lambda: sum(1 << i for i, s in enumerate(robot.light_bump_signals)
+                        if s >= LIGHT_BUMP_THRESHOLD),
+        46: lambda: robot.light_bump_signals[0],
+        47: lambda: robot.light_bump_signals[1],
+        48: lambda: robot.light_bump_signals[2],
+        49: lambda: robot.light_bump_signals[3],
+        50: lambda: robot.light_bump_signals[4],
+        51: lambda: robot.light_bump_signals[5],
+        52: lambda: 0,
+        53: lambda: 0,
+        54: lambda: round(robot.wheel_motor_currents_ma[0]),
+        55: lambda: round(robot.wheel_motor_currents_ma[1]),
+        56: lambda: 0,
+        57: lambda: 0,
+        58: lambda: p.STASIS_TOGGLING * b(robot.stasis_toggling),
     }
 
 
 class SensorEncoder:
     """The bytes the robot sends for sensor requests, read from `robot` when asked."""
 
-    def __init__(self, robot: CreateState):
+    def __init__(self, robot: CreateState, valid: FrozenSet[int] = protocol.CREATE_1_IDS):
         self._values = packet_values(robot)
+        self.valid = valid
 
     def encode_request(self, pid: int) -> bytes:
         """Data bytes of packet or group `pid` (b'' for an unknown id); reads 19/20."""
-        if not is_valid_request(pid):
+        if not is_valid_request(pid, self.valid):
             return b""
-        return b"".join(self._encode_single(m) for m in protocol.expand(pid))
+        return b"".join(self._encode_single(m) for m in protocol.expand(pid, self.valid))
 
     def _encode_single(self, pid: int) -> bytes:
         low, high = protocol.value_limits(pid)
@@ -109,7 +135,7 @@ class SensorEncoder:
         """One stream frame of the valid ids in `stream_ids` that fit in 255 data bytes."""
         body = bytearray()
         for pid in stream_ids:
-            if not is_valid_request(pid):
+            if not is_valid_request(pid, self.valid):
                 continue
             if len(body) + 1 + protocol.packet_size(pid) > MAX_FRAME_DATA_BYTES:
                 break

@@ -1,5 +1,10 @@
-"""iRobot Create (first generation) Open Interface: command encoders, sensor packet table,
-decoders and stream framing. Pure Python, no ROS: feed it bytes, get values.
+"""iRobot Create Open Interface: command encoders, sensor packet table, decoders and stream
+framing. Pure Python, no ROS: feed it bytes, get values.
+
+The first-generation Create knows packets 7..42 and groups 0..6; the Create 2 (Roomba 600
+OI) adds packets 43..58 and groups 100, 101, 106, 107 with the same sizes for 7..42. The
+functions that validate ids take ``valid``, the ids a model answers
+(:data:`CREATE_1_IDS`, the default, or :data:`CREATE_2_IDS`; :mod:`.models`).
 
 Values here are the Open Interface's raw integers (mm, mm/s, degrees, mV, mA, mAh, degC);
 conversion to SI happens at the ROS boundary (``units.py`` / the driver).
@@ -8,7 +13,7 @@ All multi-byte values are big-endian; signed ones are two's complement.
 import functools
 import struct
 from collections import namedtuple
-from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+from typing import Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 # --- opcodes (OI spec, "Open Interface Command Reference") -----------------------------
 START = 128
@@ -60,7 +65,7 @@ MAX_RADIUS_MM = 2000
 MAX_SONG_NOTES = 16
 STREAM_PERIOD_S = 0.015  # the Create sends a stream frame every 15 ms
 
-# --- sensor packets 7..42 ----------------------------------------------------------------
+# --- sensor packets 7..58 ----------------------------------------------------------------
 PacketSpec = namedtuple("PacketSpec", "id name size signed")
 
 _PACKET_TABLE: Tuple[Tuple[int, str, int, bool], ...] = (
@@ -100,6 +105,24 @@ _PACKET_TABLE: Tuple[Tuple[int, str, int, bool], ...] = (
     (40, "requested_radius", 2, True),
     (41, "requested_right_velocity", 2, True),
     (42, "requested_left_velocity", 2, True),
+    # Create 2 only (Create 2 OI spec, packets 43-58). 15 is "dirt detect" and 32/33 are
+    # unused on the Create 2; their sizes are the Create 1's.
+    (43, "left_encoder_counts", 2, True),
+    (44, "right_encoder_counts", 2, True),
+    (45, "light_bumper", 1, False),
+    (46, "light_bump_left_signal", 2, False),
+    (47, "light_bump_front_left_signal", 2, False),
+    (48, "light_bump_center_left_signal", 2, False),
+    (49, "light_bump_center_right_signal", 2, False),
+    (50, "light_bump_front_right_signal", 2, False),
+    (51, "light_bump_right_signal", 2, False),
+    (52, "ir_opcode_left", 1, False),
+    (53, "ir_opcode_right", 1, False),
+    (54, "left_motor_current", 2, True),
+    (55, "right_motor_current", 2, True),
+    (56, "main_brush_motor_current", 2, True),
+    (57, "side_brush_motor_current", 2, True),
+    (58, "stasis", 1, False),
 )
 PACKETS: Dict[int, PacketSpec] = {row[0]: PacketSpec(*row) for row in _PACKET_TABLE}
 PACKET_IDS: Dict[str, int] = {spec.name: pid for pid, spec in PACKETS.items()}
@@ -112,7 +135,16 @@ GROUPS: Dict[int, Tuple[int, ...]] = {
     4: tuple(range(27, 35)),
     5: tuple(range(35, 43)),
     6: tuple(range(7, 43)),
+    # Create 2 only
+    100: tuple(range(7, 59)),
+    101: tuple(range(43, 59)),
+    106: tuple(range(46, 52)),
+    107: tuple(range(54, 59)),
 }
+
+#: Packet and group ids each model answers.
+CREATE_1_IDS = frozenset(range(0, 43))
+CREATE_2_IDS = frozenset(range(0, 59)) | frozenset((100, 101, 106, 107))
 
 # Bits of packet 7 (bumps and wheel drops).
 BUMP_RIGHT = 0x01
@@ -127,20 +159,29 @@ SOURCE_INTERNAL_CHARGER = 0x01
 SOURCE_HOME_BASE = 0x02
 # Packet 35: OI mode.
 OI_MODES = {0: "off", 1: "passive", 2: "safe", 3: "full"}
+# Create 2: bits of packet 45 (light bumper), in the order of the signals 46..51.
+LIGHT_BUMPERS = ("left", "front_left", "center_left", "center_right", "front_right", "right")
+# Create 2: bits of packet 58 (stasis).
+STASIS_TOGGLING = 0x01   # the caster's stasis wheel turns: the robot makes forward progress
+STASIS_DISABLED = 0x02   # the stasis sensor cannot tell (e.g. dirty)
 
 
-def expand(packet_id: int) -> Tuple[int, ...]:
-    """Member packet ids of a group id (0..6), or ``(packet_id,)`` for a single packet."""
-    if packet_id in GROUPS:
-        return GROUPS[packet_id]
-    if packet_id in PACKETS:
-        return (packet_id,)
-    raise ValueError("unknown sensor packet id %r (valid: 0..42)" % (packet_id,))
+def expand(packet_id: int, valid: FrozenSet[int] = CREATE_1_IDS) -> Tuple[int, ...]:
+    """Member packet ids of a group id, or ``(packet_id,)`` for a single packet; ``valid``
+    is the model's id set (ValueError outside it)."""
+    if packet_id in valid:
+        if packet_id in GROUPS:
+            return GROUPS[packet_id]
+        if packet_id in PACKETS:
+            return (packet_id,)
+    raise ValueError("unknown sensor packet id %r (valid: 0..%d%s)"
+                     % (packet_id, max(i for i in valid if i in PACKETS),
+                        ", 100, 101, 106, 107" if 100 in valid else ""))
 
 
 def packet_size(packet_id: int) -> int:
-    """Bytes the Create sends for a packet or group id."""
-    return sum(PACKETS[pid].size for pid in expand(packet_id))
+    """Bytes the Create sends for a packet or group id (of either model)."""
+    return sum(PACKETS[pid].size for pid in expand(packet_id, CREATE_2_IDS))
 
 
 def value_limits(packet_id: int) -> Tuple[int, int]:
@@ -176,7 +217,7 @@ _STRUCT_CODES = {(1, False): "B", (1, True): "b", (2, False): "H", (2, True): "h
 
 @functools.lru_cache(maxsize=64)
 def _layout(packet_ids: Tuple[int, ...]) -> Tuple[Tuple[int, ...], struct.Struct]:
-    ids = tuple(pid for requested in packet_ids for pid in expand(requested))
+    ids = tuple(pid for requested in packet_ids for pid in expand(requested, CREATE_2_IDS))
     fmt = ">" + "".join(_STRUCT_CODES[PACKETS[pid].size, PACKETS[pid].signed] for pid in ids)
     return ids, struct.Struct(fmt)
 
@@ -233,16 +274,16 @@ def frame_stream_body(body: bytes) -> bytes:
     return bytes(frame)
 
 
-def parse_stream_body(body: bytes) -> Dict[int, int]:
+def parse_stream_body(body: bytes, valid: FrozenSet[int] = CREATE_1_IDS) -> Dict[int, int]:
     """Decode ``id, data, id, data, ...`` (group ids carry all their members' data).
 
-    ValueError on an unknown id or a truncated body.
+    ValueError on an id outside ``valid`` or a truncated body.
     """
     out: Dict[int, int] = {}
     pos = 0
     while pos < len(body):
         pid = body[pos]
-        if pid not in PACKETS and pid not in GROUPS:
+        if pid not in valid:
             raise ValueError("unknown packet id %d in stream frame" % pid)
         size = packet_size(pid)
         if pos + 1 + size > len(body):
@@ -261,18 +302,27 @@ class StreamParser:
 
     ``packet_ids``: the ids requested with Stream (148). When given, a header whose length
     byte does not match that request is rejected at once, so a stray 19 in garbage (or a
-    packet id 19 inside a frame) cannot make the parser wait for up to 255 bytes.
+    packet id 19 inside a frame) cannot make the parser wait for up to 255 bytes. Such a
+    header still counts in ``foreign_lengths`` (length byte -> times) when the bytes that
+    follow it make a frame of that length with a good checksum: a robot answering another
+    request than ours (another model) shows up there, garbage hardly ever does.
+    ``valid``: the packet ids of the model (:data:`CREATE_1_IDS` by default).
     """
 
-    def __init__(self, packet_ids: Optional[Sequence[int]] = None) -> None:
+    def __init__(self, packet_ids: Optional[Sequence[int]] = None,
+                 valid: FrozenSet[int] = CREATE_1_IDS) -> None:
         self._buf = bytearray()
+        self.valid = valid
         self.body_len: Optional[int] = None
         if packet_ids is not None:
+            for pid in packet_ids:
+                expand(pid, valid)  # validates
             self.body_len = sum(1 + packet_size(pid) for pid in packet_ids)
         self.frames_ok = 0
         self.bad_checksum = 0
         self.bad_body = 0
         self.dropped_bytes = 0
+        self.foreign_lengths: Dict[int, int] = {}
 
     def feed(self, data: bytes) -> List[Dict[int, int]]:
         self._buf += data
@@ -290,6 +340,10 @@ class StreamParser:
             if len(buf) < 2:
                 break
             if self.body_len is not None and buf[1] != self.body_len:
+                if len(buf) < buf[1] + 3 and len(buf) < self.body_len + 3:
+                    break  # might still be a frame of another length: wait for it
+                if len(buf) >= buf[1] + 3 and checksum_ok(bytes(buf[:buf[1] + 3])):
+                    self.foreign_lengths[buf[1]] = self.foreign_lengths.get(buf[1], 0) + 1
                 self.bad_body += 1
                 self.dropped_bytes += 1
                 del buf[:1]
@@ -304,7 +358,7 @@ class StreamParser:
                 del buf[:1]
                 continue
             try:
-                values = parse_stream_body(frame[2:-1])
+                values = parse_stream_body(frame[2:-1], self.valid)
             except ValueError:
                 self.bad_body += 1
                 self.dropped_bytes += 1
@@ -389,28 +443,28 @@ def play(number: int) -> bytes:
     return bytes((PLAY, _check("song number", number, 0, 15)))
 
 
-def _packet_list(opcode: int, packet_ids: Sequence[int]) -> bytes:
+def _packet_list(opcode: int, packet_ids: Sequence[int], valid: FrozenSet[int]) -> bytes:
     ids = [int(pid) for pid in packet_ids]
     if not ids:
         raise ValueError("need at least one packet id")
     for pid in ids:
-        expand(pid)  # validates
+        expand(pid, valid)  # validates
     if len(ids) > 255:
         raise ValueError("at most 255 packet ids")
     return bytes((opcode, len(ids))) + bytes(ids)
 
 
-def sensors(packet_id: int) -> bytes:
-    expand(packet_id)
+def sensors(packet_id: int, valid: FrozenSet[int] = CREATE_1_IDS) -> bytes:
+    expand(packet_id, valid)
     return bytes((SENSORS, packet_id))
 
 
-def stream(packet_ids: Sequence[int]) -> bytes:
-    return _packet_list(STREAM, packet_ids)
+def stream(packet_ids: Sequence[int], valid: FrozenSet[int] = CREATE_1_IDS) -> bytes:
+    return _packet_list(STREAM, packet_ids, valid)
 
 
-def query_list(packet_ids: Sequence[int]) -> bytes:
-    return _packet_list(QUERY_LIST, packet_ids)
+def query_list(packet_ids: Sequence[int], valid: FrozenSet[int] = CREATE_1_IDS) -> bytes:
+    return _packet_list(QUERY_LIST, packet_ids, valid)
 
 
 def pause_resume_stream(resume: bool) -> bytes:

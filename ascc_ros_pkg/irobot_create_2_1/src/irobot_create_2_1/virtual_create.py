@@ -1,8 +1,10 @@
-"""Byte-exact emulator of the first-generation iRobot Create Open Interface (pure Python).
+"""Byte-exact emulator of the iRobot Create Open Interface (pure Python).
 
 The emulator speaks the Create OI (iRobot Create Open Interface specification, the 2006-2007
-Create, not the Roomba 500 / Create 2 one): bytes from the host go into :meth:`VirtualCreate.feed`,
-bytes for the host come out of :meth:`VirtualCreate.read_output`, and :meth:`VirtualCreate.step`
+Create) or, with ``robot=models.CREATE_2``, the Create 2 OI (Roomba 600 based: packets up
+to 58 and groups 100/101/106/107, 115200 baud): bytes from the host go into
+:meth:`VirtualCreate.feed`, bytes for the host come out of :meth:`VirtualCreate.read_output`,
+and :meth:`VirtualCreate.step`
 advances emulated time (wheels, odometry, battery, songs, wait commands and the 15 ms sensor
 stream). It has no I/O of its own: :class:`irobot_create_2_1.pty_link.PtyLink` puts it behind
 a pseudo-terminal, the simulator embeds it directly.
@@ -30,6 +32,7 @@ from typing import Optional, Sequence, Tuple
 from ascc_common.params import param
 from irobot_create_2_1 import oi_commands, protocol
 from irobot_create_2_1.create_state import EPS, CreateState
+from irobot_create_2_1.models import CREATE_1, RobotModel
 from irobot_create_2_1.oi_sensors import SensorEncoder
 
 STREAM_PERIOD_S = protocol.STREAM_PERIOD_S      # the Create streams every 15 ms
@@ -44,12 +47,15 @@ class VirtualCreateParams:
 
     link_path: str = param("", "symlink to the pty (\"\": none, the /dev/pts/N path is "
                                "printed)")
+    robot_model: str = param("create_1", "create_1 or create_2: the OI emulated",
+                             choices=("create_1", "create_2"))
     rate_hz: float = param(200.0, "[Hz] emulation step rate, ROS time", gt=0.0)
     publish_rate_hz: float = param(50.0, "[Hz] rate of ~ground_truth / ~wheel_speeds",
                                    gt=0.0)
     reopen_delay_s: float = param(1.0, "[s] ~close_link: time before the pty comes back",
                                   ge=0.0)
-    wheel_base_m: float = param(0.258, "[m] wheel base")
+    wheel_base_m: float = param(0.0, "[m] wheel base; 0: the model's (0.258 / 0.235)",
+                                ge=0.0)
     battery_capacity_mah: float = param(2700.0, "[mAh] battery capacity (starts full)")
     max_wheel_speed_mm_s: float = param(500.0, "[mm/s] per-wheel clamp")
     world_frame: str = param("virtual_world", "frame of ~ground_truth")
@@ -68,15 +74,18 @@ class _Wait:
 
 
 class VirtualCreate(CreateState):
-    """First-generation iRobot Create speaking the Open Interface, in emulated time.
+    """An iRobot Create (``robot``: models.CREATE_1 or CREATE_2) speaking its Open
+    Interface, in emulated time.
 
     Not thread-safe: call it from one thread (or hold a lock).
     """
 
-    def __init__(self, wheel_base_m: float = 0.258, battery_capacity_mah: float = 2700.0,
-                 initial_charge_mah: Optional[float] = None, max_wheel_speed_mm_s: float = 500):
-        super().__init__(wheel_base_m, battery_capacity_mah, initial_charge_mah,
-                         max_wheel_speed_mm_s)
+    def __init__(self, wheel_base_m: Optional[float] = None,
+                 battery_capacity_mah: float = 2700.0,
+                 initial_charge_mah: Optional[float] = None, max_wheel_speed_mm_s: float = 500,
+                 robot: RobotModel = CREATE_1):
+        super().__init__(wheel_base_m or None, battery_capacity_mah, initial_charge_mah,
+                         max_wheel_speed_mm_s, robot)
         self._rx = bytearray()
         self._tx = bytearray()
 
@@ -94,7 +103,7 @@ class VirtualCreate(CreateState):
         self.tx_dropped_bytes = 0
         self.frames_sent = 0
 
-        self._sensors = SensorEncoder(self)
+        self._sensors = SensorEncoder(self, robot.packet_ids)
         self._events = oi_commands.wait_events(self)
 
     # ------------------------------------------------------------------ public interface

@@ -1,4 +1,5 @@
-"""A virtual first-generation iRobot Create on a pseudo-terminal, for the driver's tests.
+"""A virtual iRobot Create (``~robot_model``: create_1 or create_2) on a pseudo-terminal,
+for the driver's tests.
 
 Prints `virtual_create: serving <path>` on stdout (and logs it, and sets ~port) so a test or
 a person can point the driver at it. The emulation (irobot_create_2_1.virtual_create) steps
@@ -17,6 +18,7 @@ from nav_msgs.msg import Odometry
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
 from ascc_common.params import from_params
+from irobot_create_2_1.models import model as robot_model
 from irobot_create_2_1.pty_link import PtyLink
 from irobot_create_2_1.virtual_create import VirtualCreate, VirtualCreateParams
 
@@ -31,9 +33,10 @@ class VirtualCreateNode:
         self.reopen_delay_s = p.reopen_delay_s
         self.world_frame = p.world_frame
         self.base_frame = p.base_frame
-        self.create = VirtualCreate(wheel_base_m=p.wheel_base_m,
+        self.create = VirtualCreate(wheel_base_m=p.wheel_base_m or None,
                                     battery_capacity_mah=p.battery_capacity_mah,
-                                    max_wheel_speed_mm_s=p.max_wheel_speed_mm_s)
+                                    max_wheel_speed_mm_s=p.max_wheel_speed_mm_s,
+                                    robot=robot_model(p.robot_model))
         self.lock = threading.Lock()
         self.link = PtyLink(self.create, p.link_path or None)
         self.last_step = None
