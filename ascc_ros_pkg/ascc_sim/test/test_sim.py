@@ -12,6 +12,7 @@ from ascc_sim.runner import SimRunner, SimulatorParams
 from ascc_sim.sim import RobotModel, Simulation, integrate_arc, select_robots
 from ascc_sim.world import PersonSpec, Pose2D, RobotSpec, Waypoint, World
 from irobot_create_2_1 import protocol
+from irobot_create_2_1.models import CREATE_2
 from irobot_create_2_1.virtual_create import VirtualCreate
 
 NOISELESS = RobotModel(encoder_scale_sigma=0.0, encoder_noise_m_per_sqrt_m=0.0)
@@ -91,6 +92,21 @@ def test_spin_in_place():
     ramp_s = 0.129 / 2.0  # wheel speed / acceleration
     assert r.yaw == pytest.approx(2.0 - ramp_s / 2, abs=6e-3)  # 1 rad/s, minus the ramp
     assert r.w == pytest.approx(1.0, rel=1e-3)
+
+
+def test_create2_robot_turns_on_its_own_wheel_base_and_counts_encoders():
+    world = box_world([("r", 4.0, 3.0, 0.0)])
+    c = VirtualCreate(robot=CREATE_2)
+    c.feed(protocol.start() + protocol.full())
+    sim = Simulation(world, {"r": c}, NOISELESS)
+    drive(c, -235, 235)  # 0.235 m/s per wheel on the Create 2's 0.235 m base: 2 rad/s
+    run(sim, 1.0)
+    r = sim.robot("r")
+    assert r.w == pytest.approx(2.0, rel=1e-3)
+    c.feed(protocol.query_list([43, 44], protocol.CREATE_2_IDS))
+    left, right = protocol.decode_packets([43, 44], c.read_output()).values()
+    counts = r.yaw * 0.235 / 2 / CREATE_2.metres_per_count   # each wheel's arc [counts]
+    assert right == pytest.approx(counts, abs=1.0) and left == pytest.approx(-counts, abs=1.0)
 
 
 def test_wall_stops_robot_and_presses_both_bumpers():

@@ -167,6 +167,8 @@ def test_errors_name_file_and_field(tmp_path):
         ["3 numbers"])
     bad(tmp_path, head + "robots:\n  - {name: r, pose: [0.0, 0.0, 0.0], colour: red}\n",
         "robots[0].colour", ["unknown field"])
+    bad(tmp_path, head + "robots:\n  - {name: r, pose: [0.0, 0.0, 0.0], model: roomba}\n",
+        "robots[0].model", ["create_1", "create_2"])
     bad(tmp_path, head + "objects:\n  - {name: c, type: cone, pose: [0, 0], radius_m: -1}\n",
         "objects[0].radius_m", ["> 0"])
     bad(tmp_path, head + "objects:\n  - {name: c, type: rock, pose: [0, 0]}\n",

@@ -54,6 +54,8 @@ class RobotState:
         self.name = spec.name
         self.index = index  # position in the world file (keys this robot's random draws)
         self.create = create
+        # the emulated base's wheel base when it has its own (a Create 2), else the model's
+        self.wheel_base_m = getattr(create, "wheel_base_m", None) or model.wheel_base_m
         self.rng = rng
         self.x, self.y, self.yaw = spec.pose.x, spec.pose.y, spec.pose.yaw
         self.v_left = 0.0  # actual wheel speeds [m/s]
@@ -196,23 +198,23 @@ class Simulation:
         robot.blocked = False
         frac = 1.0
         if dl != 0.0 or dr != 0.0:
-            nx, ny, _ = integrate_arc(robot.x, robot.y, robot.yaw, dl, dr, m.wheel_base_m)
+            nx, ny, _ = integrate_arc(robot.x, robot.y, robot.yaw, dl, dr, robot.wheel_base_m)
             if (nx, ny) != (robot.x, robot.y) and self._collides(robot, nx, ny, dynamic):
                 robot.blocked = True
                 lo, hi = 0.0, 1.0  # bisect the largest free fraction of the step
                 for _ in range(10):
                     mid = 0.5 * (lo + hi)
                     mx, my, _ = integrate_arc(robot.x, robot.y, robot.yaw, dl * mid, dr * mid,
-                                              m.wheel_base_m)
+                                              robot.wheel_base_m)
                     if self._collides(robot, mx, my, dynamic):
                         hi = mid
                     else:
                         lo = mid
                 frac = lo
         dl, dr = dl * frac, dr * frac
-        x, y, yaw = integrate_arc(robot.x, robot.y, robot.yaw, dl, dr, m.wheel_base_m)
+        x, y, yaw = integrate_arc(robot.x, robot.y, robot.yaw, dl, dr, robot.wheel_base_m)
         robot.v = 0.5 * (dl + dr) / dt
-        robot.w = (dr - dl) / m.wheel_base_m / dt
+        robot.w = (dr - dl) / robot.wheel_base_m / dt
         robot.distance_m += abs(0.5 * (dl + dr))
         robot.x, robot.y, robot.yaw = x, y, yaw
         bearing = self._contact_bearing(robot, dynamic)

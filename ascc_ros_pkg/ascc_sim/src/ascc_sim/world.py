@@ -49,6 +49,7 @@ class RobotSpec(NamedTuple):
     name: str  # ground-truth topics use it: ground_truth/<name>/...
     namespace: str  # '' = no namespace (topics scan, odom; frames odom, base_link)
     pose: Pose2D  # start pose in the map frame (the robot's odom frame starts here)
+    model: str = "create_1"  # the base its virtual Create emulates (create_1 | create_2)
 
     @property
     def frame_prefix(self) -> str:
@@ -115,7 +116,8 @@ _OBJECT_KEYS = {
                  "laser_dropout_prob"},
 }
 _WORLD_KEYS = {"name", "description", "map", "robots", "objects", "people"}
-_ROBOT_KEYS = {"name", "namespace", "pose"}
+_ROBOT_KEYS = {"name", "namespace", "pose", "model"}
+ROBOT_MODELS = ("create_1", "create_2")  # irobot_create_2_1.models.MODELS
 _PERSON_KEYS = {"name", "route", "speed_mps", "radius_m", "height_m", "loop",
                 "start_delay_s", "color"}
 
@@ -413,7 +415,8 @@ def _parse_robot(ctx: _Ctx, d: Any, f: str) -> RobotSpec:
                 for part in ns.split("/")) if ns else True
     if not valid:
         raise ctx.fail(f + ".namespace", "%r is not a relative ROS name (e.g. robotA)" % ns)
-    return RobotSpec(name, ns, ctx.pose(d, f, need_yaw=True))
+    return RobotSpec(name, ns, ctx.pose(d, f, need_yaw=True),
+                     ctx.string(d, "model", f, default="create_1", choices=ROBOT_MODELS))
 
 
 def _list(ctx: _Ctx, doc: Dict[str, Any], key: str) -> List[Any]:

@@ -27,6 +27,7 @@ from ascc_sim.msg import SimObjectArray
 from ascc_sim.runner import SimRunner, SimulatorParams
 from ascc_sim.sim import Simulation, select_robots
 from ascc_sim.world import WorldError, load_world
+from irobot_create_2_1.models import model as robot_model
 from irobot_create_2_1.pty_link import PtyLink
 from irobot_create_2_1.virtual_create import VirtualCreate
 
@@ -52,8 +53,11 @@ class SimulatorNode:
 
         self.world = load_world(p.world, self.model.radius_m)
         self.specs = select_robots(self.world, p.robots.split())
-        self.creates = {s.name: VirtualCreate(wheel_base_m=self.model.wheel_base_m)
-                        for s in self.specs}
+        # each robot's base as its world file says (create_1: the ASCCbot's wheel base
+        # from ~robot; create_2: the Create 2's)
+        self.creates = {s.name: VirtualCreate(
+            wheel_base_m=self.model.wheel_base_m if s.model == "create_1" else None,
+            robot=robot_model(s.model)) for s in self.specs}
         self.sim = Simulation(self.world, self.creates, self.model, self.laser_cfg, p.seed)
         os.makedirs(self.link_dir, exist_ok=True)
         self.links = {s.name: PtyLink(self.creates[s.name],
