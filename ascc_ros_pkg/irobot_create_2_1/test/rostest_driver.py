@@ -37,10 +37,10 @@ from tf2_msgs.msg import TFMessage
 from ascc_common.pose2d import wrap_angle, yaw_of
 from ascc_testing.rosout import RosoutWatcher
 from ascc_testing.waits import Latest, wait_for
-from irobot_create_2_1.msg import Hazards, SensorPacket
+from irobot_create_2_1.models import model
+from irobot_create_2_1.msg import Hazards, LightBumper, SensorPacket
 from irobot_create_2_1.srv import Brake, Circle, Dock, Leds, Song, Tank, Turn
 
-WHEEL_BASE_M = 0.258
 WARN_PERIOD_S = 5.0              # the driver's throttle period for each kind of warning
 CMD_PERIOD_S = 1.0 / 20.0        # driver ~cmd_rate_hz (default)
 WHEEL_PUB_PERIOD_S = 1.0 / 50.0  # virtual_create ~publish_rate_hz (default)
@@ -149,6 +149,9 @@ class DriverTest(unittest.TestCase):
         cls.opt_wheels = Latest(OPT + "/virtual_create/wheel_speeds", Vector3Stamped,
                                 keep_all=True)
         cls.cmd_timeout_s = rospy.get_param(DRIVER + "/cmd_timeout_s")
+        cls.robot = model(rospy.get_param(DRIVER + "/robot_model", "create_1"))
+        cls.create2 = cls.robot.encoder_odometry
+        cls.wheel_base_m = cls.robot.wheel_base_m
         cls.port = rospy.get_param(DRIVER + "/port")
         wait_for(lambda: cls.odom.msg is not None, 30.0, "first odom from the driver")
         wait_for(lambda: cls.truth.msg is not None, 30.0, "ground truth")
@@ -286,7 +289,7 @@ class DriverTest(unittest.TestCase):
         wait_msg(self.wheels, lambda m: abs(m.vector.x - 0.2) < 1e-3
                  and abs(m.vector.y - 0.2) < 1e-3, 3.0, "wheels at 0.2 m/s", after=t)
         self.cmd.publish(twist(0.0, 1.0))
-        half = 0.5 * WHEEL_BASE_M
+        half = 0.5 * self.wheel_base_m
         wait_msg(self.wheels, lambda m: abs(m.vector.x + half) < 2e-3
                  and abs(m.vector.y - half) < 2e-3, 3.0, "spin in place", after=t)
 
@@ -300,6 +303,8 @@ class DriverTest(unittest.TestCase):
                              truth1.position.y - truth0.position.y)
         d_odom = math.hypot(odom1.position.x - odom0.position.x,
                             odom1.position.y - odom0.position.y)
+        rospy.loginfo("%s: 1 m forward: odometry %.4f m, truth %.4f m, error %.2f %%",
+                      self.robot.name, d_odom, d_truth, 100.0 * (d_odom - d_truth) / d_truth)
         self.assertGreater(d_truth, 0.99)
         self.assertLess(abs(d_odom - d_truth), 0.02 * d_truth,
                         "odometry %.4f m vs truth %.4f m" % (d_odom, d_truth))
@@ -324,6 +329,9 @@ class DriverTest(unittest.TestCase):
         odom1, truth1 = self.settled("odom after turn")
         d_truth = wrap_angle(yaw_of(truth1.orientation) - yaw0)
         d_odom = wrap_angle(yaw_of(odom1.orientation) - yaw_of(odom0.orientation))
+        rospy.loginfo("%s: turn: odometry %.2f deg, truth %.2f deg, error %.2f deg",
+                      self.robot.name, math.degrees(d_odom), math.degrees(d_truth),
+                      math.degrees(d_odom - d_truth))
         self.assertGreater(abs(d_truth), math.radians(85))
         self.assertLess(abs(math.degrees(d_odom - d_truth)), 2.0,
                         "odometry turn %.2f deg vs truth %.2f deg"
@@ -356,8 +364,10 @@ class DriverTest(unittest.TestCase):
         # tick at or after the command arrived and stops at the first tick more than
         # cmd_timeout_s after it: at most one command period more, plus one emulator step,
         # one publish period of ~wheel_speeds and one late tick.
-        rospy.loginfo("%s: stop stamped %.3f s after the command, %.3f s after the first "
-                      "moving stamp", what, stamp(stop) - t_cmd, stamp(stop) - stamp(move))
+        rospy.loginfo("%s: stop stamped %.3f s after the command (%.3f s after the timeout; "
+                      "the stamp comes up to one ~wheel_speeds period late), %.3f s after the "
+                      "first moving stamp", what, stamp(stop) - t_cmd,
+                      stamp(stop) - t_cmd - self.cmd_timeout_s, stamp(stop) - stamp(move))
         bound = (self.cmd_timeout_s + CMD_PERIOD_S + STEP_PERIOD_S + WHEEL_PUB_PERIOD_S
                  + SCHEDULING_S)
         self.assertLess(stamp(stop) - stamp(move), bound,
@@ -403,7 +413,7 @@ class DriverTest(unittest.TestCase):
                          after=t)
             self.assertAlmostEqual(m.vector.y, 0.5, places=3)
             v = 0.5 * (m.vector.x + m.vector.y)
-            w = (m.vector.y - m.vector.x) / WHEEL_BASE_M
+            w = (m.vector.y - m.vector.x) / self.wheel_base_m
             self.assertAlmostEqual(w / v, 2.0, delta=0.05)
             st, _ = self.diag_after(stamp(m), "diagnostics after saturation")
             self.assertGreater(self.counter(st, "safety", "saturated commands"), 1)
@@ -411,7 +421,7 @@ class DriverTest(unittest.TestCase):
                                "limit 0.500 m/s", "scaled down keeping the turn ratio")
 
     def test_bump_stops_forward_motion(self):
-        half = 0.5 * WHEEL_BASE_M
+        half = 0.5 * self.wheel_base_m
         try:
             with Driving(self.cmd, 0.2) as drive:
                 wait_msg(self.wheels, lambda m: m.vector.x > 0.1, 3.0, "moving",
@@ -473,6 +483,68 @@ class DriverTest(unittest.TestCase):
         wait_msg(self.wheels, lambda m: abs(m.vector.x - 0.1) < 1e-3, 5.0,
                  "driving after the restart", after=t1)
 
+    # --- Create 2: light bumper, motors, stasis ---------------------------------------------
+    def test_create2_light_bumper_slows_forward_motion(self):
+        if not self.create2:
+            self.skipTest("Create 2 only")
+        light = Latest("light_bumper", LightBumper, keep_all=True)
+        set_light = rospy.ServiceProxy("virtual_create/set_light_bump", SetBool)
+        speed = rospy.get_param(DRIVER + "/light_bump_speed_m_s")
+        self.assertGreater(speed, 0.0)
+        try:
+            with Driving(self.cmd, 0.3) as drive:
+                wait_msg(self.wheels, lambda m: abs(m.vector.x - 0.3) < 1e-3, 3.0,
+                         "free at 0.3 m/s", after=rospy.get_time())
+                t = rospy.get_time()
+                self.assertTrue(set_light(True).success)
+                msg = wait_msg(light, lambda m: m.center_left and m.right, 3.0,
+                               "light bumper sees something", after=t)
+                self.assertEqual(list(msg.signals), [1000] * 6)
+                slow = wait_msg(self.wheels, lambda m: abs(m.vector.x - speed) < 1e-3
+                                and abs(m.vector.y - speed) < 1e-3, 3.0,
+                                "slowed to light_bump_speed_m_s", after=t)
+                drive.set(-0.2)  # backing away is not slowed
+                wait_msg(self.wheels, lambda m: abs(m.vector.x + 0.2) < 1e-3, 3.0,
+                         "reversing at full speed", after=stamp(slow))
+                drive.set(0.3)
+                t = rospy.get_time()
+                self.assertTrue(set_light(False).success)
+                wait_msg(light, lambda m: not any(m.signals), 3.0, "light bumper clear",
+                         after=t)
+                wait_msg(self.wheels, lambda m: abs(m.vector.x - 0.3) < 1e-3, 3.0,
+                         "full speed again", after=t)
+        finally:
+            set_light(False)
+        st, _ = self.diag_after(rospy.get_time(), "diagnostics after the slow-down")
+        self.assertGreaterEqual(self.counter(st, "motors", "light bump slowdowns"), 1)
+
+    def test_create2_stuck_warning_and_motor_currents(self):
+        if not self.create2:
+            self.skipTest("Create 2 only")
+        set_stuck = rospy.ServiceProxy("virtual_create/set_stuck", SetBool)
+        try:
+            with Driving(self.cmd, 0.2):
+                wait_msg(self.wheels, lambda m: abs(m.vector.x - 0.2) < 1e-3, 3.0,
+                         "driving at 0.2 m/s", after=rospy.get_time())
+                st, _ = self.diag_after(rospy.get_time() + 0.5, "motors while driving")
+                level, message, values, _ = st["motors"]
+                self.assertEqual((level, message), (DiagnosticStatus.OK, "ok"))
+                # the virtual Create's motor model: 1 A per m/s of wheel speed
+                self.assertAlmostEqual(float(values["left_wheel_a"]), 0.2, delta=0.002)
+                self.assertAlmostEqual(float(values["right_wheel_a"]), 0.2, delta=0.002)
+                self.assertEqual(values["stasis_toggling"], "True")
+                t = rospy.get_time()
+                self.assertTrue(set_stuck(True).success)
+                self.assert_warned(t, "wheels driven forward for > 1.0 s but the stasis "
+                                   "sensor sees no progress", "stuck")
+                msg = wait_msg(self.diag, lambda m: statuses(m, DRIVER).get(
+                    "motors", (None,))[0] == DiagnosticStatus.WARN, 5.0,
+                    "motors status WARN", after=t)
+                self.assertEqual(statuses(msg, DRIVER)["motors"][1],
+                                 "stuck: wheels turning, stasis still")
+        finally:
+            set_stuck(False)
+
     # --- state topics ----------------------------------------------------------------------
     def test_battery(self):
         t = rospy.get_time()
@@ -499,7 +571,8 @@ class DriverTest(unittest.TestCase):
 
     def test_diagnostics(self):
         st, t = self.diag_after(rospy.get_time())
-        self.assertEqual(set(st), {"serial link", "battery", "safety"})
+        self.assertEqual(set(st), {"serial link", "battery", "safety"}
+                         | ({"motors"} if self.create2 else set()))
         level, message, values, _ = st["serial link"]
         self.assertEqual((level, message), (DiagnosticStatus.OK, "streaming"))
         self.assertEqual(values["port"], self.port)
@@ -518,7 +591,8 @@ class DriverTest(unittest.TestCase):
         st2, _ = self.diag_after(t)
         self.assertGreater(int(st2["serial link"][2]["frames ok"]),
                            int(st["serial link"][2]["frames ok"]))
-        self.assertEqual({v[3] for v in st.values()}, {"iRobot Create @ %s" % self.port})
+        self.assertEqual({v[3] for v in st.values()}, {"iRobot %s @ %s" % (
+            "Create 2" if self.create2 else "Create", self.port)})
 
     # --- services --------------------------------------------------------------------------
     def test_services_tank_and_brake(self):
@@ -547,8 +621,8 @@ class DriverTest(unittest.TestCase):
         t_stop = self._watchdog_stop(lambda: self.assertTrue(circle(False, 200, 500).success),
                                      "circle")
         arc = first(self.wheels, lambda m: not stopped(m), after=t)
-        self.assertAlmostEqual(arc.vector.x, 0.2 - 0.2 * WHEEL_BASE_M, delta=1.5e-3)
-        self.assertAlmostEqual(arc.vector.y, 0.2 + 0.2 * WHEEL_BASE_M, delta=1.5e-3)
+        self.assertAlmostEqual(arc.vector.x, 0.2 - 0.2 * self.wheel_base_m, delta=1.5e-3)
+        self.assertAlmostEqual(arc.vector.y, 0.2 + 0.2 * self.wheel_base_m, delta=1.5e-3)
         st1, _ = self.diag_after(t_stop, "diagnostics after")
         self.assertEqual(self.counter(st1, "safety", "watchdog stops"),
                          self.counter(st0, "safety", "watchdog stops") + 2)

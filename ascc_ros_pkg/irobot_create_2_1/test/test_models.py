@@ -123,3 +123,81 @@ def test_create2_stream_with_garbage_between_frames_keeps_odometry_exact():
     assert core.odom.x == pytest.approx(x, abs=0.003)
     assert core.odom.y == pytest.approx(y, abs=0.003)
     assert core.odom.theta == pytest.approx(th, abs=math.radians(0.5))
+
+
+def _create2_core(**kwargs):
+    robot = VirtualCreate(robot=CREATE_2)
+    core = CreateDriverCore(robot=CREATE_2, **kwargs)
+    robot.feed(core.init_sequence())
+    _run(core, robot, 0.05)
+    return robot, core
+
+
+def test_light_bumper_slows_forward_motion_only_when_asked():
+    robot, core = _create2_core(light_bump_speed_m_s=0.1)
+    core.set_twist(0.3, 0.5, 0.05)
+    assert core.target_wheels(0.05) == (241, 359)
+    robot.set_light_bumps([0, 0, 900, 900, 0, 0])        # something ahead
+    _run(core, robot, 0.05, t0=0.05)
+    assert core.values[45] == 0b001100
+    left, right = core.target_wheels(0.1)
+    assert (left + right) / 2 == pytest.approx(100, abs=1) and right - left == 118
+    core.command_bytes(0.1)
+    assert core.light_bump_slowdowns == 1
+    core.set_twist(-0.3, 0.0, 0.1)                       # backing away is not slowed
+    assert core.target_wheels(0.1) == (-300, -300)
+    _, off = _create2_core()                             # default: off
+    off.values[45] = 0b111111
+    off.set_twist(0.3, 0.0, 0.0)
+    assert off.target_wheels(0.0) == (300, 300)
+
+
+def test_stuck_when_wheels_turn_and_stasis_is_still():
+    robot, core = _create2_core(stuck_after_s=1.0)
+    t = 0.05
+    core.set_twist(0.2, 0.0, t)
+    robot.feed(core.command_bytes(t))
+    for _ in range(3):                                   # driving free: never stuck
+        core.set_twist(0.2, 0.0, t)
+        t = _run(core, robot, 0.5, t0=t)
+        assert not core.update_stuck(t)
+    assert core.values[58] & oi.STASIS_TOGGLING
+    robot.set_stuck(True)                                # wheels turn, body held
+    t = _run(core, robot, 0.1, t0=t)
+    assert not core.update_stuck(t)                      # not yet stuck_after_s
+    core.set_twist(0.2, 0.0, t)
+    t = _run(core, robot, 1.1, t0=t)
+    assert core.update_stuck(t) and core.stuck_now
+    assert core.values[43] != 0                          # the encoders kept counting
+    core.stop(t)
+    core.command_bytes(t)
+    assert not core.update_stuck(t)                      # wheels stopped: not stuck
+
+
+@pytest.mark.parametrize("robot", [CREATE_1, CREATE_2], ids=lambda m: m.name)
+def test_watchdog_stops_within_two_stream_periods_after_the_timeout(robot):
+    # Emulated time, the host reading every 5 ms (a 200 Hz reader): the driver's
+    # cadence-driven watchdog (watchdog_bytes after each read, as the node does) must
+    # stop the wheels within 2 stream periods (30 ms) after cmd_timeout_s.
+    create = VirtualCreate(robot=robot)
+    core = CreateDriverCore(robot=robot, cmd_timeout_s=0.5)
+    create.feed(core.init_sequence())
+    t = _run(core, create, 0.1)
+    worst = 0.0
+    for _ in range(5):
+        t_cmd = t
+        core.set_twist(0.2, 0.0, t_cmd)
+        create.feed(core.command_bytes(t_cmd))
+        while create.wheel_speed_cmd_mps != (0.0, 0.0):
+            create.step(0.005)
+            t += 0.005
+            if core.on_bytes(create.read_output(), t):   # as the node: on frames only
+                stop = core.watchdog_bytes(t)
+                if stop is not None:
+                    create.feed(stop)
+            assert t < t_cmd + 1.0, "never stopped"
+        late = t - (t_cmd + 0.5)
+        assert late >= -1e-9                      # not before the timeout
+        worst = max(worst, late)
+        t = _run(core, create, 0.037, t0=t)       # vary the phase against the stream
+    assert worst <= 2 * oi.STREAM_PERIOD_S + 1e-9, worst

@@ -126,6 +126,9 @@ class CreateDriverCore:
         self.odom = odometry or Odometry()
         self._forward_since: Optional[float] = None  # wheels driving forward, no stasis
         self.light_bump_slowdowns = 0
+        self.bytes_received = 0
+        self.stuck_seconds = 0
+        self.stuck_now = False
         self.values: Dict[int, int] = {}
         self.last_frame_time: Optional[float] = None  # when the newest frame arrived
         self.stream_clock = StreamClock()
@@ -167,6 +170,7 @@ class CreateDriverCore:
         ``values``); they are used once it passes and dropped on a mismatch, after which
         nothing more is decoded."""
         self.frame_poses = []
+        self.bytes_received += len(data)
         if self.mismatch:
             return []
         frames = [f for f in self.parser.feed(data) if self.model_check.accept(f)]
@@ -279,18 +283,29 @@ class CreateDriverCore:
     def sent_wheels(self) -> Optional[Tuple[int, int]]:
         return self._sent
 
+    def watchdog_bytes(self, now: float) -> Optional[bytes]:
+        """The watchdog at the stream's cadence (call after each read of frames): the
+        stop command when the command went stale while the wheels were sent moving, else
+        None. The command timer alone would stop them up to one of its periods late."""
+        if self.command_stale(now) and self._sent not in (None, (0, 0)):
+            return self.command_bytes(now)
+        return None
+
     # --- Create 2: stasis -------------------------------------------------------------
-    def stuck(self, now: float) -> bool:
-        """Create 2: both wheels have been driven forward (sent speeds) for
-        ``stuck_after_s`` while the stasis sensor (packet 58, caster) reports no forward
-        progress and is not disabled. False on a Create 1 (no packet 58)."""
+    def update_stuck(self, now: float) -> bool:
+        """Create 2: True (also kept in ``stuck_now``) when both wheels have been driven
+        forward (sent speeds) for ``stuck_after_s`` while the stasis sensor (packet 58)
+        reports no forward progress and is not disabled. False on a Create 1 (no 58).
+        Call it periodically (the node: once a second)."""
         stasis = self.values.get(58)
         sent = self._sent or (0, 0)
         moving = min(sent) > 0
         if (stasis is None or not moving or stasis & protocol.STASIS_TOGGLING
                 or stasis & protocol.STASIS_DISABLED):
             self._forward_since = None
+            self.stuck_now = False
             return False
         if self._forward_since is None:
             self._forward_since = now
-        return now - self._forward_since >= self.stuck_after_s
+        self.stuck_now = now - self._forward_since >= self.stuck_after_s
+        return self.stuck_now

@@ -76,3 +76,27 @@ def hazards(values: Mapping[int, int]) -> Dict[str, bool]:
         "cliff_front_right": bool(values.get(11, 0)), "cliff_right": bool(values.get(12, 0)),
         "wall": bool(values.get(8, 0)), "virtual_wall": bool(values.get(13, 0)),
     }
+
+
+def light_bumper(values: Mapping[int, int]) -> Dict[str, object]:
+    """Create 2: fields of irobot_create_2_1/LightBumper from packets 45..51 (empty when
+    absent): one bool per sensor (packet 45's bits) and the six raw signals."""
+    if 45 not in values:
+        return {}
+    bits = values[45]
+    out: Dict[str, object] = {name: bool(bits >> i & 1)
+                              for i, name in enumerate(oi.LIGHT_BUMPERS)}
+    out["signals"] = [values.get(46 + i, 0) for i in range(len(oi.LIGHT_BUMPERS))]
+    return out
+
+
+def motors(values: Mapping[int, int]) -> Dict[str, object]:
+    """Create 2: motor currents [A] (packets 54..57) and the stasis flags (58); empty when
+    absent."""
+    if 58 not in values:
+        return {}
+    names = ("left_wheel_a", "right_wheel_a", "main_brush_a", "side_brush_a")
+    out: Dict[str, object] = {n: values.get(54 + i, 0) / 1000.0 for i, n in enumerate(names)}
+    out["stasis_toggling"] = bool(values[58] & oi.STASIS_TOGGLING)
+    out["stasis_disabled"] = bool(values[58] & oi.STASIS_DISABLED)
+    return out

@@ -1,9 +1,11 @@
-"""ROS driver for the first-generation iRobot Create (Open Interface over serial).
+"""ROS driver for the iRobot Create and Create 2 (Open Interface over serial;
+``~robot_model``).
 
 Interface-compatible with Brown University's irobot_create_2_1: publishes `sensorPacket`,
 `odom` (+ TF odom->base_link), subscribes `cmd_vel`, serves tank/turn/circle/brake/leds/
-demo/dock/song. Adds `battery`, `hazards` and `/diagnostics`. The protocol, odometry and
-safety logic live in irobot_create_2_1.driver_core; this file only wires ROS to it.
+demo/dock/song. Adds `battery`, `hazards` and `/diagnostics` (and, on a Create 2,
+`light_bumper` and the motors' status). The protocol, odometry, model check and safety
+logic live in irobot_create_2_1.driver_core; this file only wires ROS to it.
 Parameters: ``irobot_create_2_1.driver_core.DriverParams``.
 """
 import math
@@ -24,7 +26,8 @@ from ascc_common.throttle import Throttle
 from irobot_create_2_1 import protocol, sensor_state
 from irobot_create_2_1.driver_core import CreateDriverCore, DriverParams
 from irobot_create_2_1.link import SerialLink
-from irobot_create_2_1.msg import Hazards, SensorPacket
+from irobot_create_2_1.models import model as robot_model
+from irobot_create_2_1.msg import Hazards, LightBumper, SensorPacket
 from irobot_create_2_1.odometry import twist_covariance
 from irobot_create_2_1.srv import (
     Brake,
@@ -58,8 +61,11 @@ class CreateDriverNode:
         self.sensor_timeout_s = p.sensor_timeout_s
         self.core = CreateDriverCore(
             wheel_base_m=p.wheel_base_m, mode=p.mode, cmd_timeout_s=p.cmd_timeout_s,
-            stop_on_bump=p.stop_on_bump, max_wheel_speed_m_s=p.max_wheel_speed_m_s)
-        self.link = SerialLink(self.port, p.baud)
+            stop_on_bump=p.stop_on_bump, max_wheel_speed_m_s=p.max_wheel_speed_m_s,
+            robot=robot_model(p.robot_model), baud=p.baud,
+            light_bump_speed_m_s=p.light_bump_speed_m_s, stuck_after_s=p.stuck_after_s)
+        self.create2 = self.core.robot.encoder_odometry
+        self.link = SerialLink(self.port, self.core.baud)
         self.lock = threading.Lock()
         self.publish_period = rospy.Duration(1.0 / max(p.publish_rate_hz, 1e-3))
         self.last_publish = None
@@ -68,28 +74,35 @@ class CreateDriverNode:
         self.stopping = False  # set by shutdown(): no more commands, no reopening
         self.throttle = Throttle(WARN_PERIOD_S)  # one period per kind of warning
         self.corrupt_reported = (0, 0, 0)  # parser counters named in the last warning
+        self.mismatch_reported = False
 
         self.odom_pub = rospy.Publisher("odom", Odometry, queue_size=10)
         self.packet_pub = rospy.Publisher("sensorPacket", SensorPacket, queue_size=10)
         self.hazard_pub = rospy.Publisher("hazards", Hazards, queue_size=10)
         self.battery_pub = rospy.Publisher("battery", BatteryState, queue_size=1)
+        self.light_pub = (rospy.Publisher("light_bumper", LightBumper, queue_size=10)
+                          if self.create2 else None)
         self.tf_pub = tf2_ros.TransformBroadcaster()
         rospy.Subscriber("cmd_vel", Twist, self.on_cmd_vel, queue_size=1)
         self._services()
 
         self.diag = diagnostic_updater.Updater()
-        self.diag.setHardwareID("iRobot Create @ %s" % self.port)
+        self.diag.setHardwareID("iRobot %s @ %s" % (
+            "Create 2" if self.create2 else "Create", self.port))
         self.diag.add("serial link", self.diag_link)
         self.diag.add("battery", self.diag_battery)
         self.diag.add("safety", self.diag_safety)
+        if self.create2:
+            self.diag.add("motors", self.diag_motors)
 
         rospy.on_shutdown(self.shutdown)
         self.reader = threading.Thread(target=self.read_loop, name="create_reader", daemon=True)
         self.reader.start()
         rospy.Timer(rospy.Duration(1.0 / p.cmd_rate_hz), self.on_cmd_timer)
         rospy.Timer(rospy.Duration(1.0), self.on_slow_timer)
-        rospy.loginfo("create driver: port %s, mode %s, cmd_timeout_s %.2f",
-                      self.port, self.core.mode, self.core.cmd_timeout_s)
+        rospy.loginfo("create driver: %s on port %s at %d baud, mode %s, cmd_timeout_s %.2f",
+                      self.core.robot.name, self.port, self.core.baud, self.core.mode,
+                      self.core.cmd_timeout_s)
 
     def _services(self):
         def srv(name, cls, resp, handler):
@@ -170,6 +183,26 @@ class CreateDriverNode:
         with self.lock:
             self.core.on_bytes(data, now.to_sec())
             poses = list(self.core.frame_poses)  # one entry per completed frame
+            mismatch = self.core.mismatch and not (self.stopping or self.mismatch_reported)
+            self.mismatch_reported |= mismatch
+            # The watchdog also runs at the stream's 15 ms cadence, not only on the
+            # command timer: a stale command stops the wheels within one frame.
+            stale_before = self.core.watchdog_stops
+            stop = (self.core.watchdog_bytes(now.to_sec())
+                    if poses and not self.stopping else None)
+            if stop is not None:
+                self.link.write(stop)
+            tripped = self.core.watchdog_stops > stale_before
+        if tripped:
+            self.warn("watchdog", "no cmd_vel for %.2f s, robot stopped"
+                      % self.core.cmd_timeout_s)
+        if self.core.mismatch:
+            if not mismatch:
+                return  # reported once; the node is shutting down
+            # Driving on would mean odometry from bytes of another robot: stop the node.
+            rospy.logfatal("create driver: %s", self.core.model_check.message)
+            rospy.signal_shutdown("robot model mismatch")
+            return
         if poses:
             # Stamped when each frame was measured, not when it was read: a backlog on
             # a busy machine would make the odometry lag, then jump. A backlog's older
@@ -204,6 +237,11 @@ class CreateDriverNode:
         hz = Hazards(**sensor_state.hazards(values))
         hz.header = packet.header
         self.hazard_pub.publish(hz)
+        light = sensor_state.light_bumper(values)
+        if self.light_pub is not None and light:
+            msg = LightBumper(**light)
+            msg.header = packet.header
+            self.light_pub.publish(msg)
 
     def publish_odom(self, now, x, y, theta, pose_cov):
         msg = Odometry()
@@ -250,8 +288,8 @@ class CreateDriverNode:
                 self.link.write(data)
             tripped = self.core.watchdog_stops > stale_before
         if tripped:
-            rospy.logwarn_throttle(WARN_PERIOD_S, "create driver: no cmd_vel for %.2f s, "
-                                   "robot stopped" % self.core.cmd_timeout_s)
+            self.warn("watchdog", "no cmd_vel for %.2f s, robot stopped"
+                      % self.core.cmd_timeout_s)
 
     def on_slow_timer(self, event):
         now = rospy.get_time()
@@ -263,6 +301,10 @@ class CreateDriverNode:
                 self.link.write(self.core.init_sequence())
                 self.last_init = time.monotonic()
             battery = sensor_state.battery_si(self.core.values)
+            silent = self.core.bytes_received == 0
+            stuck = not self.stopping and self.core.update_stuck(now)
+            if stuck:
+                self.core.stuck_seconds += 1
             p = self.core.parser
             corrupt = (p.bad_checksum, p.bad_body, p.dropped_bytes)
             report = corrupt != self.corrupt_reported and self.throttle.ready("corrupt", now)
@@ -274,9 +316,16 @@ class CreateDriverNode:
                           "bad checksum, %d with a bad header or body, %d byte(s) in all "
                           "(since the last warning)" % (self.port, d[0], d[1], d[2]))
         if stale:
+            hint = (" (nothing at all at %d baud: a create_1 talks at 57600, a create_2 at "
+                    "115200; is ~robot_model %s right?)" % (self.core.baud,
+                                                           self.core.robot.name)
+                    if silent else "")
             rospy.logwarn_throttle(WARN_PERIOD_S, "create driver: no sensor frame from %s "
-                                   "for > %.1f s; re-sent start/stream" %
-                                   (self.port, self.sensor_timeout_s))
+                                   "for > %.1f s; re-sent start/stream%s" %
+                                   (self.port, self.sensor_timeout_s, hint))
+        if stuck:
+            self.warn("stuck", "wheels driven forward for > %.1f s but the stasis sensor "
+                      "sees no progress: the robot is stuck" % self.core.stuck_after_s)
         if self.core.values:
             self.publish_battery(battery)
         self.diag.update()
@@ -379,6 +428,24 @@ class CreateDriverNode:
         stat.add("watchdog stops", self.core.watchdog_stops)
         stat.add("rejected commands", self.core.rejected_cmds)
         stat.add("saturated commands", self.core.saturated_cmds)
+        return stat
+
+    def diag_motors(self, stat):
+        """Create 2: wheel and brush motor currents, stasis, light bumper."""
+        m = sensor_state.motors(self.core.values)
+        if not m:
+            stat.summary(DiagnosticStatus.STALE, "no data")
+            return stat
+        if self.core.stuck_now:
+            stat.summary(DiagnosticStatus.WARN, "stuck: wheels turning, stasis still")
+        elif m["stasis_disabled"]:
+            stat.summary(DiagnosticStatus.WARN, "stasis sensor disabled")
+        else:
+            stat.summary(DiagnosticStatus.OK, "ok")
+        for key, value in sorted(m.items()):
+            stat.add(key, "%.3f" % value if isinstance(value, float) else str(value))
+        stat.add("seconds stuck", self.core.stuck_seconds)
+        stat.add("light bump slowdowns", self.core.light_bump_slowdowns)
         return stat
 
     def shutdown(self):

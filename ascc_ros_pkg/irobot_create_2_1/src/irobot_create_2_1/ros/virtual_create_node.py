@@ -25,6 +25,7 @@ from irobot_create_2_1.virtual_create import VirtualCreate, VirtualCreateParams
 WARN_PERIOD_S = 5.0
 MAX_STEP_S = 0.5          # a longer gap (paused sim, suspended process) is not emulated
 GARBAGE_BYTES = 64
+LIGHT_BUMP_SIGNAL = 1000  # ~set_light_bump's signal level (0..4095)
 
 
 class VirtualCreateNode:
@@ -45,6 +46,8 @@ class VirtualCreateNode:
         self.truth_pub = rospy.Publisher("~ground_truth", Odometry, queue_size=10)
         self.wheel_pub = rospy.Publisher("~wheel_speeds", Vector3Stamped, queue_size=10)
         rospy.Service("~set_bump", SetBool, self.srv_set_bump)
+        rospy.Service("~set_light_bump", SetBool, self.srv_set_light_bump)
+        rospy.Service("~set_stuck", SetBool, self.srv_set_stuck)
         rospy.Service("~inject_garbage", Trigger, self.srv_inject_garbage)
         rospy.Service("~close_link", Trigger, self.srv_close_link)
         rospy.Service("~power_cycle", Trigger, self.srv_power_cycle)
@@ -107,6 +110,20 @@ class VirtualCreateNode:
             self.create.set_bumpers(req.data, req.data)
         return SetBoolResponse(True, "bumpers %s" % ("pressed" if req.data else "released"))
 
+    def srv_set_light_bump(self, req):
+        """Create 2: all six light bump signals at LIGHT_BUMP_SIGNAL (something close ahead)
+        or 0."""
+        with self.lock:
+            self.create.set_light_bumps([LIGHT_BUMP_SIGNAL if req.data else 0] * 6)
+        return SetBoolResponse(True, "light bump signals %d" % (
+            LIGHT_BUMP_SIGNAL if req.data else 0))
+
+    def srv_set_stuck(self, req):
+        """Hold the body still while the wheels turn (the stasis sensor sees no progress)."""
+        with self.lock:
+            self.create.set_stuck(req.data)
+        return SetBoolResponse(True, "stuck" if req.data else "free")
+
     def srv_inject_garbage(self, _req):
         with self.lock:
             written = self.link.inject(os.urandom(GARBAGE_BYTES))
@@ -133,6 +150,7 @@ class VirtualCreateNode:
         with self.lock:
             c = self.create
             state = {
+                "robot_model": c.robot.name,
                 "mode": c.mode,
                 "wheel_speeds_mps": list(c.wheel_speed_cmd_mps),
                 "streaming": c.streaming, "stream_ids": list(c.stream_ids),
