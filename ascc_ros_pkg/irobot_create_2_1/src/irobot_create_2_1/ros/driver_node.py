@@ -185,17 +185,10 @@ class CreateDriverNode:
             poses = list(self.core.frame_poses)  # one entry per completed frame
             mismatch = self.core.mismatch and not (self.stopping or self.mismatch_reported)
             self.mismatch_reported |= mismatch
+        if poses:
             # The watchdog also runs at the stream's 15 ms cadence, not only on the
             # command timer: a stale command stops the wheels within one frame.
-            stale_before = self.core.watchdog_stops
-            stop = (self.core.watchdog_bytes(now.to_sec())
-                    if poses and not self.stopping else None)
-            if stop is not None:
-                self.link.write(stop)
-            tripped = self.core.watchdog_stops > stale_before
-        if tripped:
-            self.warn("watchdog", "no cmd_vel for %.2f s, robot stopped"
-                      % self.core.cmd_timeout_s)
+            self.send_wheels(lambda: self.core.watchdog_bytes(now.to_sec()))
         if self.core.mismatch:
             if not mismatch:
                 return  # reported once; the node is shutting down
@@ -279,11 +272,16 @@ class CreateDriverNode:
 
     def on_cmd_timer(self, event):
         now = rospy.get_time()
+        self.send_wheels(lambda: self.core.command_bytes(now))
+
+    def send_wheels(self, make_bytes):
+        """Write ``make_bytes()`` (a wheel command or None) under the lock, unless
+        stopping; warn (throttled) when it was a watchdog stop."""
         with self.lock:
             if self.stopping:
                 return
             stale_before = self.core.watchdog_stops
-            data = self.core.command_bytes(now)
+            data = make_bytes()
             if data is not None:
                 self.link.write(data)
             tripped = self.core.watchdog_stops > stale_before
