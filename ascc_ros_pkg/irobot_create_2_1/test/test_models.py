@@ -201,3 +201,18 @@ def test_watchdog_stops_within_two_stream_periods_after_the_timeout(robot):
         worst = max(worst, late)
         t = _run(core, create, 0.037, t0=t)       # vary the phase against the stream
     assert worst <= 2 * oi.STREAM_PERIOD_S + 1e-9, worst
+
+
+def test_demo_and_clear_per_model():
+    c1, c2 = CreateDriverCore(), CreateDriverCore(robot=CREATE_2, mode="full")
+    assert c1.demo_bytes(3) == bytes([136, 3])
+    with pytest.raises(ValueError, match="no demos"):
+        c2.demo_bytes(3)
+    assert c1.clear_bytes() == bytes([136, 255, 131])
+    assert c2.clear_bytes() == bytes([132])
+    # on the virtual Create 2, Seek Dock then the clear: back in full mode, wheels obey
+    robot = VirtualCreate(robot=CREATE_2)
+    robot.feed(c2.init_sequence() + bytes([143]))
+    assert robot.mode == "passive" and robot.docking_requested
+    robot.feed(c2.clear_bytes() + oi.drive_direct(100, 100))
+    assert robot.mode == "full" and robot.wheel_speed_cmd_mps == (0.1, 0.1)

@@ -173,3 +173,35 @@ def test_driver_core_odometry_from_encoders_across_the_rollover():
     assert wrapped                                       # the left counter rolled over
     assert core.odom.x == pytest.approx(robot.pose[0], abs=0.002)
     assert abs(core.odom.y) < 1e-3 and abs(core.odom.theta) < 1e-3
+
+
+def _mode(robot):
+    robot.read_output()
+    robot.feed(bytes([142, 35]))                         # Sensors [35]: OI mode
+    return robot.read_output()[0]
+
+
+def test_virtual_create2_frames_the_create2_command_set():
+    # Spec: Max [136] has no data byte (the Create 1's Demo [136][n] has one): Max then
+    # Safe puts the robot into safe mode; a Create 1 reads the same bytes as Demo 131.
+    for robot, expected in ((VirtualCreate(robot=CREATE_2), 2), (VirtualCreate(), 1)):
+        robot.feed(bytes([128, 131, 136, 131]))
+        assert _mode(robot) == expected, robot.robot.name
+    robot = VirtualCreate(robot=CREATE_2)
+    robot.feed(bytes([128, 131]))
+    # Spec: Schedule [167] + 15 data bytes, Set Day/Time [168][day][hour][minute],
+    # Digit LEDs ASCII [164] + 4, Scheduling LEDs [162] + 2, Buttons [165] + 1: all
+    # framed by their lengths, so the Drive Direct after them drives.
+    robot.feed(bytes([167] + [0] * 15 + [168, 1, 12, 30] + [164, 65, 66, 67, 68]
+                     + [162, 0, 0] + [165, 0]) + bytes([145, 0, 100, 0, 100]))
+    assert robot.wheel_speed_cmd_mps == (0.1, 0.1)
+    # Spec: Stop [173]: the OI stops (off: only Start is heard).
+    robot.feed(bytes([173]))
+    assert robot.oi_mode == 0 and robot.wheel_speed_cmd_mps == (0.0, 0.0)
+    # The Create 1's Wait Time [155][t] is no Create 2 command: it does not hold the
+    # input (both bytes, 155 and 20, are no opcodes), the Drive Direct after it drives.
+    robot.feed(bytes([128, 131, 155, 20, 145, 0, 50, 0, 50]))
+    assert robot.wheel_speed_cmd_mps == (0.05, 0.05)
+    create1 = VirtualCreate()
+    create1.feed(bytes([128, 131, 155, 20, 145, 0, 50, 0, 50]))
+    assert create1.waiting and create1.wheel_speed_cmd_mps == (0.0, 0.0)

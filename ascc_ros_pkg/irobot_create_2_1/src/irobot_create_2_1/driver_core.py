@@ -157,6 +157,20 @@ class CreateDriverCore:
         return (protocol.start() + mode + protocol.drive_direct(0, 0)
                 + protocol.stream(self.robot.stream_packets, self.robot.packet_ids))
 
+    def demo_bytes(self, number: int) -> bytes:
+        """Demo (Create 1 only; ValueError on the Create 2, where opcode 136 is Max)."""
+        if self.robot.encoder_odometry:
+            raise ValueError("the Create 2 has no demos (its opcode 136 is Max, a cleaning "
+                             "cycle)")
+        return protocol.demo(number)
+
+    def clear_bytes(self) -> bytes:
+        """Stop a running demo, cleaning cycle or docking and take the robot back into
+        the driver's mode. Create 1: Demo 255 (which, like every Demo, leaves the OI in
+        passive mode) then the mode; Create 2: the mode command alone ends them."""
+        mode = protocol.safe() if self.mode == "safe" else protocol.full()
+        return mode if self.robot.encoder_odometry else protocol.demo(255) + mode
+
     # --- sensors --------------------------------------------------------------------
     @property
     def mismatch(self) -> bool:

@@ -18,6 +18,11 @@ Behaviour choices where the spec is silent or where we deliberately differ:
 * Song with a number above 15 or 0 / more than 16 notes, Script longer than 100 bytes and a
   Baud code above 11 are consumed and ignored.
 * Stream with 0 packets stops the stream. An unknown Wait Event id ends the wait at once.
+* Create 2 (:data:`CREATE_2_COMMANDS`): Max (136, no data byte) runs like Cover; Seek Dock
+  (143) like Cover-and-Dock; Reset (7) and Stop (173) power-cycle the OI (off: Start
+  only), Power (133) drops to passive; Drive PWM, the scheduling/digit LEDs, Buttons,
+  Schedule and Set Day/Time are consumed and ignored; the Create 1's scripts, waits,
+  digital outputs and Send IR are unknown opcodes there.
 """
 
 from __future__ import annotations
@@ -122,28 +127,54 @@ COMMANDS: Dict[int, Tuple[Handler, Tuple[int, ...]]] = {
     protocol.WAIT_EVENT: (lambda r, a: r.start_wait("event", int8(a[0])), STARTED),
 }
 
+def _ignored(robot: VirtualCreate, args: bytes) -> None:
+    """A command of the Create 2 OI that is consumed but not emulated."""
+
+
+#: The Create 2 (Roomba 600 OI): the Create 1's commands less those it lacks, Max instead
+#: of Demo (no data byte), and its own commands; those not emulated are consumed.
+CREATE_2_COMMANDS: Dict[int, Tuple[Handler, Tuple[int, ...]]] = {
+    **{op: entry for op, entry in COMMANDS.items()
+       if op in protocol.CREATE_2_FIXED_ARG_BYTES or op in (protocol.SONG, protocol.STREAM,
+                                                          protocol.QUERY_LIST)},
+    protocol.MAX: (lambda r, a: r.start_demo(DEMO_COVER), STARTED),
+    protocol.RESET: (lambda r, a: r.power_cycle(), STARTED),
+    protocol.STOP: (lambda r, a: r.power_cycle(), STARTED),
+    protocol.POWER: (lambda r, a: r.enter_passive(), STARTED),
+    protocol.DRIVE_PWM: (_ignored, ACTUATING),
+    protocol.SCHEDULING_LEDS: (_ignored, ACTUATING),
+    protocol.DIGIT_LEDS_RAW: (_ignored, ACTUATING),
+    protocol.DIGIT_LEDS_ASCII: (_ignored, ACTUATING),
+    protocol.BUTTONS: (_ignored, STARTED),
+    protocol.SCHEDULE: (_ignored, STARTED),
+    protocol.SET_DAY_TIME: (_ignored, STARTED)}
+
 _VARIABLE_LENGTH = (protocol.SONG, protocol.STREAM, protocol.QUERY_LIST, protocol.SCRIPT)
 
 
-def _fixed_lengths() -> Dict[int, int]:
+def _fixed_lengths(commands, arg_bytes) -> Dict[int, int]:
     """Total length (opcode + data) of every fixed-length command, from protocol.py."""
     lengths = {}
-    for op in COMMANDS:
+    for op in commands:
         if op in _VARIABLE_LENGTH:
             continue
-        if op not in protocol.FIXED_ARG_BYTES:
-            raise KeyError("protocol.FIXED_ARG_BYTES lacks opcode %d" % op)
-        lengths[op] = 1 + protocol.FIXED_ARG_BYTES[op]
+        if op not in arg_bytes:
+            raise KeyError("protocol's data byte table lacks opcode %d" % op)
+        lengths[op] = 1 + arg_bytes[op]
     return lengths
 
 
-_LENGTHS = _fixed_lengths()
+_LENGTHS = _fixed_lengths(COMMANDS, protocol.FIXED_ARG_BYTES)
+_CREATE_2_LENGTHS = _fixed_lengths(CREATE_2_COMMANDS, protocol.CREATE_2_FIXED_ARG_BYTES)
+#: robot model name -> (commands, fixed lengths)
+COMMAND_SETS = {"create_1": (COMMANDS, _LENGTHS),
+                "create_2": (CREATE_2_COMMANDS, _CREATE_2_LENGTHS)}
 
 
-def command_length(rx: bytearray) -> Optional[int]:
+def command_length(rx: bytearray, lengths: Optional[Dict[int, int]] = None) -> Optional[int]:
     """Bytes the command at the head of `rx` needs, None if not known yet."""
     op = rx[0]
-    fixed = _LENGTHS.get(op)
+    fixed = (_LENGTHS if lengths is None else lengths).get(op)
     if fixed is not None:
         return fixed
     if op == protocol.SONG:              # [140][song][n][note, duration] * n
@@ -156,14 +187,17 @@ SKIPPED = (-1, b"")
 the OI is off)."""
 
 
-def take_command(rx: bytearray, mode: int) -> Optional[Tuple[int, bytes]]:
+def take_command(rx: bytearray, mode: int, model: str = "create_1"
+                 ) -> Optional[Tuple[int, bytes]]:
     """Cut the command at the head of the non-empty input queue `rx`: (opcode, data
-    bytes), :data:`SKIPPED`, or None while the command is incomplete (`rx` untouched)."""
+    bytes), :data:`SKIPPED`, or None while the command is incomplete (`rx` untouched).
+    ``model``: whose command set frames the bytes (:data:`COMMAND_SETS`)."""
+    commands, lengths = COMMAND_SETS[model]
     op = rx[0]
-    if (mode == OFF and op != protocol.START) or op not in COMMANDS:
+    if (mode == OFF and op != protocol.START) or op not in commands:
         del rx[0]                            # the OI only listens for Start when off
         return SKIPPED
-    need = command_length(rx)
+    need = command_length(rx, lengths)
     if need is None or len(rx) < need:
         return None                          # wait for the rest of the command
     args = bytes(rx[1:need])
@@ -171,10 +205,10 @@ def take_command(rx: bytearray, mode: int) -> Optional[Tuple[int, bytes]]:
     return op, args
 
 
-def execute(robot: VirtualCreate, op: int, args: bytes) -> bool:
+def execute(robot: VirtualCreate, op: int, args: bytes, model: str = "create_1") -> bool:
     """Run a command taken by take_command; False when the robot's mode does not allow it
     (then it is consumed and ignored)."""
-    handler, modes = COMMANDS[op]
+    handler, modes = COMMAND_SETS[model][0][op]
     if robot.oi_mode not in modes:
         return False
     handler(robot, args)

@@ -56,6 +56,20 @@ FIXED_ARG_BYTES: Dict[int, int] = {
     WAIT_ANGLE: 2, WAIT_EVENT: 1,
 }
 
+# Create 2 OI (Roomba 600) opcodes that the Create 1 does not have, and the Create 2's data
+# byte counts where they differ: 136 is Max (clean, no data byte), not Demo; 147 and
+# 151..158 (digital outputs, send IR, scripts, waits) do not exist on the Create 2.
+RESET, POWER, DRIVE_PWM, STOP = 7, 133, 146, 173
+MAX, SEEK_DOCK = DEMO, COVER_AND_DOCK          # the Create 2's names of 136 and 143
+SCHEDULING_LEDS, DIGIT_LEDS_RAW, DIGIT_LEDS_ASCII, BUTTONS = 162, 163, 164, 165
+SCHEDULE, SET_DAY_TIME = 167, 168
+CREATE_2_FIXED_ARG_BYTES: Dict[int, int] = {
+    **{op: n for op, n in FIXED_ARG_BYTES.items()
+       if op not in (DIGITAL_OUTPUTS, SEND_IR, PLAY_SCRIPT, SHOW_SCRIPT, WAIT_TIME,
+                     WAIT_DISTANCE, WAIT_ANGLE, WAIT_EVENT)},
+    RESET: 0, POWER: 0, MAX: 0, DRIVE_PWM: 4, SCHEDULING_LEDS: 2, DIGIT_LEDS_RAW: 4,
+    DIGIT_LEDS_ASCII: 4, BUTTONS: 1, SCHEDULE: 15, SET_DAY_TIME: 3, STOP: 0}
+
 STREAM_HEADER = 19
 STRAIGHT_RADIUS = 0x8000  # special radius: drive straight (also 0x7FFF)
 SPIN_CW_RADIUS = -1

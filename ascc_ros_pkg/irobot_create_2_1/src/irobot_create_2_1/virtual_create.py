@@ -177,14 +177,14 @@ class VirtualCreate(CreateState):
     def _process_input(self) -> None:
         done = 0
         while self._rx and self._wait is None and done < MAX_COMMANDS_PER_CALL:
-            command = oi_commands.take_command(self._rx, self._mode)
+            command = oi_commands.take_command(self._rx, self._mode, self.robot.name)
             if command is None:
                 return                           # wait for the rest of the command
             if command is oi_commands.SKIPPED:
                 self.unknown_bytes += 1
                 continue
             done += 1
-            if oi_commands.execute(self, *command):
+            if oi_commands.execute(self, *command, model=self.robot.name):
                 self.commands_executed += 1
             else:
                 self.commands_ignored += 1

@@ -113,7 +113,7 @@ class CreateDriverNode:
         srv("brake", Brake, BrakeResponse, self.srv_brake)
         srv("leds", Leds, LedsResponse,
             lambda r: self.write(protocol.leds(r.play, r.advance, r.color, r.intensity)))
-        srv("demo", Demo, DemoResponse, lambda r: self.write(protocol.demo(r.demo)))
+        srv("demo", Demo, DemoResponse, lambda r: self.write(self.core.demo_bytes(r.demo)))
         srv("dock", Dock, DockResponse,
             lambda r: self.write(protocol.cover_and_dock()) if r.dock else True)
         srv("song", Song, SongResponse,
@@ -346,11 +346,9 @@ class CreateDriverNode:
     # --- services ---------------------------------------------------------------------------
     def _clear(self, clear):
         if clear:
-            # Demo 255 stops a running demo (or docking) but, like every Demo command,
-            # leaves the OI in passive mode, where wheel commands are ignored: take the
-            # robot back into the driver's mode, or the motion asked for never happens.
-            mode = protocol.safe() if self.core.mode == "safe" else protocol.full()
-            self.write(protocol.demo(255) + mode)
+            # Stop a demo or docking and take the robot back into the driver's mode (in
+            # passive mode wheel commands are ignored): core.clear_bytes per model.
+            self.write(self.core.clear_bytes())
 
     def _wheels(self, left_mm_s, right_mm_s):
         with self.lock:
