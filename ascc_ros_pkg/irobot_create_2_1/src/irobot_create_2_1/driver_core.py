@@ -96,7 +96,7 @@ class CreateDriverCore:
     """``robot``: the model (:mod:`.models`); ``wheel_base_m`` None or 0 takes its wheel
     base, ``baud`` None its baud rate (the start-up model check names it).
     ``light_bump_speed_m_s`` > 0 caps forward speed while a light bumper (Create 2) sees
-    something; ``stuck_after_s``: see :meth:`stuck`."""
+    something; ``stuck_after_s``: see :meth:`update_stuck`."""
 
     def __init__(self, wheel_base_m: Optional[float] = None, mode: str = "safe",
                  cmd_timeout_s: float = 0.5, stop_on_bump: bool = True,
