@@ -1,0 +1,1 @@
+"""The telepresence nodes (rospy)."""
