@@ -31,6 +31,7 @@ from target_follower.following import TargetFollowerParams
 from target_follower.logo_detector import LogoParams
 from target_follower.ros.target_detector_node import DetectorNodeParams
 from telepresence.mux import VelocityMuxParams
+from telepresence.ros.gesture_recognizer_node import GestureNodeParams
 from telepresence.skeleton_sim import SkeletonSimParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -45,7 +46,8 @@ TABLES = {
                                                  DriveSquareParams],
     "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,
                                                 LogoParams, TargetFollowerParams],
-    "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams],
+    "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams,
+                                             GestureNodeParams],
 }
 
 

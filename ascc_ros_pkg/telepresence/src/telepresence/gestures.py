@@ -264,48 +264,101 @@ class GestureMatcher:
         return min(errs, key=lambda m: m.error_rad2) if errs else None
 
 
+class Step(NamedTuple):
+    """What one skeleton frame gave: a command (or None), the angles (None if the frame
+    was unusable) and problems as (kind, text) for throttled warnings."""
+
+    match: Optional[Match]
+    angles: Optional[Tuple[float, float]]
+    problems: List[Tuple[str, str]]
+
+
+class GestureRecognizer:
+    """Skeleton frames -> commands: the angles of each frame into a GestureMatcher, with
+    the bad-data rules: a frame without usable angles (missing joints, NaN) is skipped
+    (a gap: windows across it are not compared); another user id forgets the samples
+    (no window mixes two people); a frame not newer than the last is ignored."""
+
+    def __init__(self, templates: Sequence[Template], params: GestureParams):
+        self.matcher = GestureMatcher(templates, params)
+        self.user: Optional[int] = None
+
+    def reset(self) -> None:
+        self.matcher.reset()
+        self.user = None
+
+    def on_frame(self, t: float, user: int, joints: Dict[str, Any]) -> Step:
+        problems = []
+        if self.user is not None and user != self.user:
+            s = self.matcher.samples
+            if s and t - s[-1][0] < self.matcher.horizon_s:
+                problems.append(("user", "user id changed from %d to %d: the %d samples "
+                                 "of the gesture window dropped (no command from two "
+                                 "people's motion)" % (self.user, user, len(s))))
+            self.matcher.reset()
+        self.user = user
+        try:
+            yaw, pitch = elbow_angles(joints)
+        except BadSkeleton as err:
+            kind = "missing" if str(err).startswith("missing") else "bad"
+            problems.append((kind, "user %d: skeleton frame skipped: %s" % (user, err)))
+            return Step(None, None, problems)
+        return Step(self.matcher.add(t, yaw, pitch), (yaw, pitch), problems)
+
+
 # -- skeleton frames from TF ------------------------------------------------------------
 FRAME_RE = re.compile(r"^/?([a-z_]+?)_(\d+)$")
 
 
 class SkeletonFrames:
-    """openni_tracker's TF transforms assembled into frames: ``add`` every transform
-    (child ``<joint>_<user>`` of ``depth_frame``), ``newest()`` the newest user's joints
-    whose stamps are within ``max_skew_s`` of its newest joint (openni_tracker stamps
-    each joint's transform separately)."""
+    """openni_tracker's TF transforms assembled into frames. openni_tracker sends each
+    joint of a frame in its own transform with its own stamp, so a frame is the run of
+    joints of one user within ``max_skew_s`` of its first, each joint once: ``add`` every
+    transform (child ``<joint>_<user>`` of ``depth_frame``), ``take(now)`` the frames
+    completed (all 15 joints, or the next frame begun, or ``max_skew_s`` passed since
+    the first joint: then it may lack joints, which ``elbow_angles`` names)."""
 
     def __init__(self, depth_frame: str = "openni_depth_frame", max_skew_s: float = 0.05):
         self.depth_frame = depth_frame.lstrip("/")
         self.max_skew_s = max_skew_s
-        self.joints: Dict[int, Dict[str, Tuple[float, Tuple[float, float, float]]]] = {}
-        self.newest_user: Optional[int] = None
-        self.newest_t = -math.inf
+        self.current: Dict[str, Any] = {}  # joint -> xyz of the frame being assembled
+        self.user: Optional[int] = None
+        self.first_t = self.last_t = -math.inf
+        self.ready: List[Tuple[float, int, Dict[str, Any]]] = []
 
-    def add(self, parent: str, child: str, t: float, xyz: Tuple[float, float, float]
-            ) -> Optional[str]:
-        """Store one transform; a problem (wrong parent) as a string, None if stored or
-        not a skeleton frame."""
+    def add(self, parent: str, child: str, t: float, xyz: Any) -> Optional[str]:
+        """Store one transform; a problem (a skeleton frame of another parent) as a
+        string, None if stored or not a skeleton frame."""
         m = FRAME_RE.match(child)
         if m is None or m.group(1) not in JOINT_SET:
             return None
         if parent.lstrip("/") != self.depth_frame:
             return "skeleton frame %s has parent %s, expected %s" % (child, parent,
                                                                     self.depth_frame)
-        user = int(m.group(2))
-        self.joints.setdefault(user, {})[m.group(1)] = (t, xyz)
-        if t >= self.newest_t:
-            self.newest_t, self.newest_user = t, user
+        user, joint = int(m.group(2)), m.group(1)
+        if self.current and (user != self.user or joint in self.current
+                             or t - self.first_t > self.max_skew_s):
+            self._close()
+        if not self.current:
+            self.user, self.first_t = user, t
+        self.current[joint] = xyz
+        self.last_t = max(self.last_t, t) if len(self.current) > 1 else t
+        if len(self.current) == len(JOINT_SET):
+            self._close()
         return None
 
-    def newest(self) -> Optional[Tuple[float, int, Dict[str, Tuple[float, float, float]]]]:
-        """(t, user, joints) of the newest user's newest frame, None before any."""
-        if self.newest_user is None:
-            return None
-        js = self.joints[self.newest_user]
-        t = max(v[0] for v in js.values())
-        return t, self.newest_user, {k: v[1] for k, v in js.items()
-                                     if v[0] >= t - self.max_skew_s}
+    def _close(self) -> None:
+        self.ready.append((self.last_t, self.user, self.current))
+        self.current = {}
+
+    def take(self, now: float) -> List[Tuple[float, int, Dict[str, Any]]]:
+        """The frames (t of their newest joint, user, joints) completed by ``now``, oldest
+        first."""
+        if self.current and now - self.first_t >= self.max_skew_s:
+            self._close()
+        out, self.ready = self.ready, []
+        return out
 
     def clear(self) -> None:
-        self.joints.clear()
-        self.newest_user, self.newest_t = None, -math.inf
+        self.current, self.ready = {}, []
+        self.user, self.first_t, self.last_t = None, -math.inf, -math.inf

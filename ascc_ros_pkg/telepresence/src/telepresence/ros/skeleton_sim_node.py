@@ -6,8 +6,8 @@ neck_1, torso_1, right_elbow_1, ...) as children of ``~depth_frame`` (rotation: 
 person's facing); nothing while the person is not tracked or a frame is dropped. A static
 ``~parent_frame -> ~depth_frame`` (the Kinect's mount) unless ``~parent_frame`` is empty.
 For evaluation only (no algorithm may read it): ``ground_truth/gestures``
-(std_msgs/String, JSON, one per episode as it starts: ``kind``, ``start``,
-``motion_end``, ``end`` in ROS seconds, ``seed``). Parameters:
+(std_msgs/String, latched, JSON, at each script's start: ``seed`` and ``episodes``, a
+list of ``kind``, ``start``, ``motion_end``, ``end`` in ROS seconds). Parameters:
 ``telepresence.skeleton_sim.SkeletonSimParams`` (package README).
 """
 import json
@@ -38,9 +38,9 @@ class SkeletonSimNode:
         self.round = 0
         self.t0 = None  # ROS time [s] of the current script's start
         self.source = None
-        self.shown = -1  # index of the last episode announced on ground_truth/gestures
         self.tf = tf2_ros.TransformBroadcaster()
-        self.truth_pub = rospy.Publisher("ground_truth/gestures", String, queue_size=20)
+        self.truth_pub = rospy.Publisher("ground_truth/gestures", String, queue_size=1,
+                                         latch=True)
         if self.p.parent_frame:
             self.static_tf = tf2_ros.StaticTransformBroadcaster()
             self.static_tf.sendTransform(_transform(
@@ -52,7 +52,10 @@ class SkeletonSimNode:
         seed = self.p.seed + self.round
         self.source = SkeletonSource(self.p.script(seed), self.p.sensor, seed)
         self.source.user = user  # user ids keep counting across rounds
-        self.t0, self.shown = now_s, -1
+        self.t0 = now_s
+        self.truth_pub.publish(String(data=json.dumps({"seed": seed, "episodes": [
+            {"kind": e.kind, "start": now_s + e.t0, "motion_end": now_s + e.motion_end,
+             "end": now_s + e.t1} for e in self.source.script]})))
         rospy.loginfo("skeleton_sim: script of %d episodes, %.1f s, seed %d",
                       len(self.source.script), self.source.end_s, seed)
 
@@ -71,7 +74,6 @@ class SkeletonSimNode:
             self.round += 1
             self._start(now_s, self.source.user)
             t = 0.0
-        self._announce(t)
         frame = self.source.frame(t)
         if frame is None:
             return
@@ -79,15 +81,6 @@ class SkeletonSimNode:
         self.tf.sendTransform([
             _transform(now, self.p.depth_frame, "%s_%d" % (name, frame.user), xyz, yaw)
             for name, xyz in frame.joints.items()])
-
-    def _announce(self, t):
-        script = self.source.script
-        while self.shown + 1 < len(script) and script[self.shown + 1].t0 <= t:
-            self.shown += 1
-            e = script[self.shown]
-            self.truth_pub.publish(String(data=json.dumps({
-                "kind": e.kind, "start": self.t0 + e.t0, "motion_end": self.t0 + e.motion_end,
-                "end": self.t0 + e.t1, "seed": self.p.seed + self.round})))
 
 
 def main():
