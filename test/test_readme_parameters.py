@@ -31,6 +31,7 @@ from target_follower.following import TargetFollowerParams
 from target_follower.logo_detector import LogoParams
 from target_follower.ros.target_detector_node import DetectorNodeParams
 from telepresence.mux import VelocityMuxParams
+from telepresence.ros.gesture_control_node import GestureControlNodeParams
 from telepresence.ros.gesture_recognizer_node import GestureNodeParams
 from telepresence.skeleton_sim import SkeletonSimParams
 
@@ -47,7 +48,7 @@ TABLES = {
     "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,
                                                 LogoParams, TargetFollowerParams],
     "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams,
-                                             GestureNodeParams],
+                                             GestureNodeParams, GestureControlNodeParams],
 }
 
 

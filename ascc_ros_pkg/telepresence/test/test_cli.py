@@ -1,6 +1,7 @@
 """record_gesture_template (telepresence.cli): from the simulated person and from a bag of
 openni_tracker-like /tf, the same template; bad input named with exit status 2."""
 import io
+import os
 
 import numpy as np
 import pytest
@@ -9,10 +10,12 @@ from geometry_msgs.msg import TransformStamped
 from rosbags.rosbag1 import Writer
 from tf2_msgs.msg import TFMessage
 
-from telepresence.cli import bag_frames, record_main
-from telepresence.gestures import load_template
+from telepresence.cli import bag_frames, recognize_main, record_main
+from telepresence.gestures import GestureParams, GestureRecognizer, load_template
 from telepresence.recording import record_sim_template
 from telepresence.skeleton_sim import SensorParams, SkeletonSource, script_of
+
+PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def write_skeleton_bag(path, source, t0=100.0, rate_hz=30.0, per_joint=True):
@@ -94,3 +97,46 @@ def test_bag_without_skeleton_exit_2(tmp_path, capsys):
     assert record_main(["go_away", "--bag", bag, "--start", "0", "--end", "2", "-o",
                         str(tmp_path / "x.yaml")]) == 2
     assert "no usable skeleton frames" in capsys.readouterr().err
+
+
+def test_recognize_gestures_prints_each_gesture_like_the_node(tmp_path, capsys):
+    """A bag of a scripted performance (held-out seed 21): one line per gesture, time
+    inside the gesture, the same as the recognizer on the frames directly."""
+    script = script_of(["rest", "come_close", "rest", "scratch", "rest", "go_away", "rest"],
+                       21)
+    sensor = SensorParams(lost_per_min=0.0)
+    bag = str(tmp_path / "run.bag")
+    write_skeleton_bag(bag, SkeletonSource(script, sensor, 21), t0=100.0)
+    assert recognize_main([bag]) == 0
+    lines = capsys.readouterr().out.split()
+    rows = [(float(lines[i]), lines[i + 1], float(lines[i + 2]))
+            for i in range(0, len(lines), 3)]
+    assert [r[1] for r in rows] == ["come_close", "go_away"]
+    for (t, _command, err), e in zip(rows, [script[1], script[5]]):
+        assert 100.0 + e.t0 < t <= 100.0 + e.motion_end + 0.5
+        assert 0.0 <= err < GestureParams().threshold_rad2
+    direct = GestureRecognizer([load_template(os.path.join(PKG, "templates", c + ".yaml"))
+                                for c in ("come_close", "go_away")], GestureParams())
+    src = SkeletonSource(script, sensor, 21)
+    got = []
+    for t in np.arange(0.0, src.end_s, 1.0 / 30.0):
+        f = src.frame(float(t))
+        m = f and direct.on_frame(f.t, f.user, f.joints).match
+        if m:
+            got.append((m.command, round(m.error_rad2, 4)))
+    assert got == [(r[1], r[2]) for r in rows]
+
+
+def test_recognize_gestures_bad_input(tmp_path, capsys):
+    assert recognize_main(["/nonexistent.bag"]) == 2
+    assert "cannot read /nonexistent.bag" in capsys.readouterr().err
+    bag = str(tmp_path / "empty.bag")
+    with Writer(bag) as w:
+        w.add_connection("/tf", "tf2_msgs/msg/TFMessage", msgdef=TFMessage._full_text,
+                         md5sum=TFMessage._md5sum)
+    assert recognize_main([bag]) == 2
+    assert "no skeleton frames" in capsys.readouterr().err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("command: come_close\n")
+    assert recognize_main([bag, "--come-close-template", str(bad)]) == 3
+    assert "lacks rate_hz" in capsys.readouterr().err

@@ -1,4 +1,16 @@
-"""The package's command-line tools (no rospy): ``record_gesture_template``.
+"""The package's command-line tools (no rospy): ``record_gesture_template`` and
+``recognize_gestures``.
+
+    recognize_gestures RUN.bag [--come-close-template F] [--go-away-template F]
+        [--threshold-rad2 T] [--depth-frame openni_depth_frame]
+
+reads the skeleton frames of a bag's ``/tf`` (openni_tracker's, or skeleton_sim's) and
+prints one line per recognized gesture, in order: its time (the stamp of the frame that
+matched, seconds), command and match error [rad^2], e.g. ``1795453329.912 come_close
+0.0380``; nothing when none. The frames go through the gesture_recognizer node's code
+(SkeletonFrames, GestureRecognizer) with its default parameters and the package's
+templates unless given. Exit status 0; 2 if the bag cannot be read or has no skeleton
+frames; 3 if a template is missing or malformed (named on stderr).
 
     record_gesture_template COMMAND -o FILE.yaml --sim [--seed N]
     record_gesture_template COMMAND -o FILE.yaml --bag RUN.bag --start S --end E
@@ -15,10 +27,21 @@ stderr.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Iterator, List, Tuple
 
-from telepresence.gestures import COMMANDS, BadSkeleton, SkeletonFrames, elbow_angles, save_template
+from telepresence.gestures import (
+    COMMANDS,
+    BadSkeleton,
+    GestureParams,
+    GestureRecognizer,
+    SkeletonFrames,
+    TemplateError,
+    elbow_angles,
+    load_template,
+    save_template,
+)
 from telepresence.recording import Sample, record_sim_template, template_from_samples
 
 
@@ -87,12 +110,53 @@ def record_main(argv=None) -> int:
     except (OSError, ValueError) as err:
         print("record_gesture_template: %s" % err, file=sys.stderr)
         return 2
-    except Exception as err:  # rosbags' own errors (not a bag, truncated): named, exit 2
-        if type(err).__module__.startswith("rosbags"):
-            print("record_gesture_template: %s: %s" % (a.bag, err), file=sys.stderr)
-            return 2
-        raise
+    except Exception as err:  # noqa: BLE001 -- rosbags' own errors (not a bag, truncated)
+        if not _bag_error(err):
+            raise
+        print("record_gesture_template: %s: %s" % (a.bag, err), file=sys.stderr)
+        return 2
     save_template(a.output, tp)
     print("%s: %s, %d samples, %.2f s, %s" % (a.output, tp.command, len(tp.yaw),
                                               tp.duration_s, tp.source))
+    return 0
+
+
+def _bag_error(err: Exception) -> bool:
+    """Whether ``err`` is one of reading a bag (rosbags' own errors, or the file's)."""
+    return isinstance(err, OSError) or type(err).__module__.startswith("rosbags")
+
+
+def recognize_main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="recognize_gestures",
+                                 description="Gestures in a bag's skeleton TF frames.")
+    ap.add_argument("bag")
+    pkg = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    for c in COMMANDS:
+        ap.add_argument("--%s-template" % c.replace("_", "-"),
+                        default=os.path.join(pkg, "templates", c + ".yaml"))
+    ap.add_argument("--threshold-rad2", type=float, default=GestureParams().threshold_rad2)
+    ap.add_argument("--depth-frame", default="openni_depth_frame")
+    a = ap.parse_args(argv)
+    try:
+        templates = [load_template(getattr(a, "%s_template" % c)) for c in COMMANDS]
+    except TemplateError as err:
+        print("recognize_gestures: %s" % err, file=sys.stderr)
+        return 3
+    rec = GestureRecognizer(templates, GestureParams(threshold_rad2=a.threshold_rad2))
+    frames = 0
+    try:
+        for t, user, joints in bag_frames(a.bag, a.depth_frame):
+            frames += 1
+            m = rec.on_frame(t, user, joints).match
+            if m is not None:
+                print("%.3f %s %.4f" % (m.t, m.command, m.error_rad2), flush=True)
+    except Exception as err:  # noqa: BLE001 -- only bag errors are handled, others re-raised
+        if not _bag_error(err):
+            raise
+        print("recognize_gestures: cannot read %s: %s" % (a.bag, err), file=sys.stderr)
+        return 2
+    if frames == 0:
+        print("recognize_gestures: no skeleton frames (children of %s on /tf) in %s"
+              % (a.depth_frame, a.bag), file=sys.stderr)
+        return 2
     return 0
