@@ -28,8 +28,8 @@ from std_msgs.msg import String
 
 from ascc_common.params import ParamError, from_params, nested, param
 from ascc_common.throttle import Throttle
-from ascc_navigation.laser import LaserMount
 from ascc_navigation.mapper import ScanInput, check_scan
+from ascc_navigation.ros.laser_tf import mount_from_tf
 from telepresence.gesture_control import (
     IDLE,
     GestureController,
@@ -137,11 +137,7 @@ class GestureControlNode:
     def _mount(self, frame):
         if frame not in self.mounts:
             try:
-                t = self.tf_buffer.lookup_transform(self.p.base_frame, frame, rospy.Time(0),
-                                                    rospy.Duration(0.05))
-                tr, q = t.transform.translation, t.transform.rotation
-                self.mounts[frame] = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z,
-                                                               q.w)
+                self.mounts[frame] = mount_from_tf(self.tf_buffer, self.p.base_frame, frame)
             except (tf2_ros.TransformException, ValueError) as err:
                 self._warn("mount", "scan frame '%s' unusable: %s" % (frame, err))
                 return None
