@@ -16,7 +16,9 @@ GestureRecognizer exactly as the node passes them:
 * idle set: ``--idle-min`` minutes of idle motion only (rest, scratch, point, wave,
   walk_past; seeds ``--idle-seed`` + 0, 1, ...): every command is false.
 
-Prints the numbers and the machine; ``--json FILE`` writes them.
+``--noise-m``, ``--drop-prob``, ``--lost-per-min``: a harsher tracker than the default
+(robustness rows of the results). Prints the numbers and the machine; ``--json FILE``
+writes them.
 """
 import argparse
 import json
@@ -27,7 +29,14 @@ import time
 import numpy as np
 
 from telepresence.gestures import GestureParams, GestureRecognizer, load_template
-from telepresence.skeleton_sim import GESTURES, IDLE_KINDS, KINDS, SkeletonSource, make_script
+from telepresence.skeleton_sim import (
+    GESTURES,
+    IDLE_KINDS,
+    KINDS,
+    SensorParams,
+    SkeletonSource,
+    make_script,
+)
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RATE_HZ = 30.0
@@ -57,8 +66,13 @@ def main():
     ap.add_argument("--gesture-seed", type=int, default=1000)
     ap.add_argument("--idle-seed", type=int, default=2000)
     ap.add_argument("--late-s", type=float, default=0.5)
+    ap.add_argument("--noise-m", type=float, default=SensorParams().noise_m)
+    ap.add_argument("--drop-prob", type=float, default=SensorParams().drop_prob)
+    ap.add_argument("--lost-per-min", type=float, default=SensorParams().lost_per_min)
     ap.add_argument("--json")
     a = ap.parse_args()
+    sensor = SensorParams(noise_m=a.noise_m, drop_prob=a.drop_prob,
+                          lost_per_min=a.lost_per_min)
     templates = [load_template(os.path.join(PKG, "templates", c + ".yaml")) for c in GESTURES]
     params = GestureParams()
     frames = 0
@@ -69,7 +83,7 @@ def main():
     per_kind = {k: [0, 0] for k in GESTURES}  # recognized, performed
     while n_gestures < a.gestures:
         script = make_script(seed, 120.0, KINDS, weights=[3, 3, 1, 1, 1, 1, 1])
-        src = SkeletonSource(script, seed=seed)
+        src = SkeletonSource(script, sensor, seed)
         commands, n, dt = run(src, GestureRecognizer(templates, params))
         frames, spent, gesture_set_s = frames + n, spent + dt, gesture_set_s + src.end_s
         used, counted_until = set(), 0.0
@@ -100,7 +114,7 @@ def main():
     idle_s, false_idle, seed, false_list = 0.0, 0, a.idle_seed, []
     while idle_s < 60.0 * a.idle_min:
         script = make_script(seed, min(600.0, 60.0 * a.idle_min - idle_s), IDLE_KINDS)
-        src = SkeletonSource(script, seed=seed)
+        src = SkeletonSource(script, sensor, seed)
         commands, n, dt = run(src, GestureRecognizer(templates, params))
         frames, spent, idle_s = frames + n, spent + dt, idle_s + src.end_s
         false_idle += len(commands)
@@ -124,6 +138,8 @@ def main():
         "false_commands_between_gestures": false_in_gesture_set,
         "gesture_set_minutes": gesture_set_s / 60.0,
         "threshold_rad2": params.threshold_rad2,
+        "sensor": {"noise_m": a.noise_m, "drop_prob": a.drop_prob,
+                   "lost_per_min": a.lost_per_min},
         "ms_per_frame": 1000.0 * spent / frames, "frames": frames,
         "machine": "%s, %s, %d cores, Python %s" % (platform.node(), platform.processor()
                                                     or platform.machine(), os.cpu_count(),

@@ -90,7 +90,11 @@ class GestureRecognizerTest(unittest.TestCase):
         self.wait_script_end()
         src = SkeletonSource(script_of(["rest", "come_close", "rest"], 11), CLEAN, 11)
         g = src.script[1]
-        mid = (g.t0 + g.motion_end) / 2.0
+        # another user id every 0.8 s of the gesture: no user alone performs a whole one
+        # (0.8 s is less than a cycle and than the shortest window, 0.8 x 1.8 s)
+
+        def users(t, _u):
+            return 70 + max(0, int((t - g.t0) // 0.8))
 
         def nan_hand(joints):
             joints["right_hand"] = (float("nan"), 0.0, 1.0)
@@ -101,7 +105,7 @@ class GestureRecognizerTest(unittest.TestCase):
         for name, kwargs, words in [
                 ("NaN", {"joints_edit": nan_hand}, ("user 60", "non-finite", "right_hand")),
                 ("missing", {"joints_edit": no_elbow}, ("user 61", "missing", "right_elbow")),
-                ("user change", {"user_map": lambda t, u: 70 if t < mid else 71},
+                ("user change", {"user_map": users},
                  ("changed from 70 to 71",))]:
             if name == "NaN":
                 kwargs["user_map"] = lambda t, u: 60

@@ -87,6 +87,9 @@ def test_bad_skeletons_are_named():
 
 
 # -- templates ---------------------------------------------------------------------------
+RAW = {"smooth_s": 0.0}  # no moving average: the errors below are exact
+
+
 def sine_template(command="come_close", rate=15.0, n=30, f=1.0, psi0=0.1, amp=0.5,
                   centre=0.7):
     t = np.arange(n) / rate
@@ -169,7 +172,7 @@ def motion(template, seconds, rate=30.0, speed=1.0, offset=(0.0, 0.0), lead_s=1.
 
 def test_the_template_itself_matches_with_zero_error_at_its_end():
     tp = sine_template()
-    m = GestureMatcher([tp], GestureParams(time_scales=[1.0]))
+    m = GestureMatcher([tp], GestureParams(time_scales=[1.0], **RAW))
     psi, theta = motion(tp, tp.duration_s, rate=tp.rate_hz)
     matches = feed(m, psi, theta, rate=tp.rate_hz)
     assert len(matches) == 1
@@ -179,7 +182,7 @@ def test_the_template_itself_matches_with_zero_error_at_its_end():
 
 def test_error_is_the_mean_squared_angle_difference():
     tp = sine_template()
-    m = GestureMatcher([tp], GestureParams(time_scales=[1.0], threshold_rad2=10.0))
+    m = GestureMatcher([tp], GestureParams(time_scales=[1.0], threshold_rad2=10.0, **RAW))
     psi, theta = motion(tp, tp.duration_s, rate=tp.rate_hz, offset=(0.0, 0.1))
     feed(m, psi, theta, rate=tp.rate_hz)
     assert m.best(1.0 + tp.duration_s).error_rad2 == pytest.approx(0.01, rel=1e-6)
@@ -193,24 +196,38 @@ def test_error_is_the_mean_squared_angle_difference():
 def test_yaw_wraps_at_pi():
     tp = Template("go_away", 15.0, wrap(np.pi - 0.1 + 0.3 * np.sin(np.arange(30) / 3.0)),
                   np.zeros(30))
-    m = GestureMatcher([tp], GestureParams(time_scales=[1.0]))
+    m = GestureMatcher([tp], GestureParams(time_scales=[1.0], **RAW))
     psi, theta = motion(tp, tp.duration_s, rate=tp.rate_hz)
     matches = feed(m, wrap(psi), theta, rate=tp.rate_hz)
     assert matches and matches[0].error_rad2 < 1e-9
 
 
+def test_moving_average_of_the_last_smooth_s():
+    m = GestureMatcher([sine_template()], GestureParams(smooth_s=0.08))
+    for i, (yaw, pitch) in enumerate([(0.0, 0.0), (0.3, 0.6), (0.6, 0.3), (0.9, 0.9)]):
+        m.add(i / 30.0, yaw, pitch)
+    t, yaw, pitch = m.samples[-1]
+    assert (yaw, pitch) == pytest.approx((0.6, 0.6))  # the last 3 frames at 30 Hz
+    assert m.samples[0][1:] == (0.0, 0.0)
+    m.reset()
+    m.add(0.0, math.pi - 0.05, 0.0)
+    m.add(1 / 30.0, -math.pi + 0.05, 0.0)  # across the wrap: the mean is pi, not 0
+    assert float(wrap(m.samples[-1][1])) == pytest.approx(-math.pi, abs=1e-9)
+
+
 def test_threshold_decides():
     tp = sine_template()
     psi, theta = motion(tp, tp.duration_s, rate=30.0, offset=(0.0, 0.2))  # error 0.04
-    assert feed(GestureMatcher([tp], GestureParams(threshold_rad2=0.05)), psi, theta)
-    assert not feed(GestureMatcher([tp], GestureParams(threshold_rad2=0.03)), psi, theta)
+    assert feed(GestureMatcher([tp], GestureParams(threshold_rad2=0.05, **RAW)), psi, theta)
+    assert not feed(GestureMatcher([tp], GestureParams(threshold_rad2=0.03, **RAW)), psi, theta)
 
 
 def test_time_scales_find_a_slower_gesture():
     tp = sine_template()
     psi, theta = motion(tp, 1.25 * tp.duration_s + 0.1, speed=0.8)
-    assert not feed(GestureMatcher([tp], GestureParams(time_scales=[1.0])), psi, theta)
-    matches = feed(GestureMatcher([tp], GestureParams(threshold_rad2=2e-3)), psi, theta)
+    one_scale = GestureParams(time_scales=[1.0], threshold_rad2=2e-3, **RAW)
+    assert not feed(GestureMatcher([tp], one_scale), psi, theta)
+    matches = feed(GestureMatcher([tp], GestureParams(threshold_rad2=2e-3, **RAW)), psi, theta)
     assert matches and matches[0].time_scale == pytest.approx(1.25)
     assert matches[0].t == pytest.approx(1.0 + 1.25 * tp.duration_s, abs=0.04)
 

@@ -10,18 +10,19 @@ forearm points forward, +: toward the person's left) and **pitch** theta = atan2
 |d horizontal|) (+: up), in radians. They do not depend on where the person stands or
 how they face the sensor.
 
-**Matching** (``GestureMatcher``): the newest samples (psi, theta) are compared with each
-template over a window of the template's length, the window ending at the newest sample,
-resampled to the template's time base (linear interpolation; psi unwrapped). The error is
-the mean over the window of ``(cos theta_T * wrap(psi - psi_T))^2 + (theta - theta_T)^2``
-[rad^2] (the squared angle between the two forearm directions for small differences:
-yaw counts less when the forearm points up or down, where it is ill-defined). The
-window slides with every new sample (the thesis's shift to the least error), and is
-also stretched by the ``time_scales`` (people beckon faster or slower than the template).
-A template matches when its least error is below ``threshold_rad2``; the best template
-under the threshold is the command. A window that spans a gap in the samples longer than
-``max_gap_s`` (lost frames, bad data) is not compared; after a command none is emitted
-for ``refractory_s``.
+**Matching** (``GestureMatcher``): each new sample (psi, theta) is first the mean of the
+samples of the last ``smooth_s`` (3 frames at 30 Hz: less joint noise, 0.03 s of lag); the
+newest samples are compared with each template over a window of the template's length, the
+window ending at the newest sample, resampled to the template's time base (linear
+interpolation; psi unwrapped). The error is the mean over the window of ``(cos theta_T *
+wrap(psi - psi_T))^2 + (theta - theta_T)^2`` [rad^2] (the squared angle between the two
+forearm directions for small differences: yaw counts less when the forearm points up or
+down, where it is ill-defined). The window slides with every new sample (the thesis's
+shift to the least error), and is also stretched by the ``time_scales`` (people beckon
+faster or slower than the template). A template matches when its least error is below
+``threshold_rad2``; the best template under the threshold is the command. A window that
+spans a gap in the samples longer than ``max_gap_s`` (lost frames, bad data) is not
+compared; after a command none is emitted for ``refractory_s``.
 """
 from __future__ import annotations
 
@@ -181,13 +182,15 @@ def resample(t: Sequence[float], yaw: Sequence[float], pitch: Sequence[float],
 # -- matching ----------------------------------------------------------------------------
 @dataclass
 class GestureParams:
-    threshold_rad2: float = param(0.05, "a template matches when its mean squared angle "
+    threshold_rad2: float = param(0.08, "a template matches when its mean squared angle "
                                   "error is below this [rad^2]", gt=0.0)
     time_scales: List[float] = param([0.8, 0.9, 1.0, 1.1, 1.25], "window lengths tried, "
                                      "relative to the template's", gt=0.2, le=5.0)
     max_gap_s: float = param(0.25, "a window spanning a longer gap between samples is not "
                              "compared [s]", gt=0.0)
     refractory_s: float = param(1.5, "no command for this long after one [s]", ge=0.0)
+    smooth_s: float = param(0.08, "each sample is the mean of the samples of this last "
+                            "stretch of time (causal moving average; 0: none) [s]", ge=0.0)
 
 
 class Match(NamedTuple):
@@ -207,19 +210,26 @@ class GestureMatcher:
         self.p = params
         longest = max((tp.duration_s for tp in self.templates), default=0.0)
         self.horizon_s = longest * max(params.time_scales) + 0.5
-        self.samples: deque = deque()  # (t, unwrapped yaw, pitch)
+        self.samples: deque = deque()  # (t, unwrapped yaw, pitch), smoothed
+        self.raw: deque = deque()  # (t, unwrapped yaw, pitch) of the last smooth_s
         self.last_command_t = -math.inf
 
     def reset(self) -> None:
         self.samples.clear()
+        self.raw.clear()
 
     def add(self, t: float, yaw: float, pitch: float) -> Optional[Match]:
         if self.samples and t <= self.samples[-1][0]:
             return None  # not newer: ignored
-        if self.samples:  # unwrap yaw against the previous sample
-            prev = self.samples[-1][1]
+        if self.raw:  # unwrap yaw against the previous sample
+            prev = self.raw[-1][1]
             yaw = prev + float(wrap(yaw - prev))
-        self.samples.append((t, yaw, pitch))
+        self.raw.append((t, yaw, pitch))
+        while self.raw[0][0] <= t - self.p.smooth_s and len(self.raw) > 1:
+            self.raw.popleft()
+        n = len(self.raw)
+        self.samples.append((t, sum(r[1] for r in self.raw) / n,
+                             sum(r[2] for r in self.raw) / n))
         while self.samples and self.samples[0][0] < t - self.horizon_s:
             self.samples.popleft()
         best = self.best(t)
