@@ -1,0 +1,117 @@
+"""Which robots' estimates are fused: checks, clock offsets and association by stamps.
+
+Every estimate is checked before fusion (``check_estimate``): its frame, a finite mean,
+and a symmetric positive-definite covariance with finite entries; a failure is a reason
+naming the robot. Estimates are associated by their stamps (``associate``): the newest
+estimate of each robot is used when its stamp lies within ``window_s`` of the newest
+stamp among all robots and not more than ``future_tolerance_s`` ahead of the receiver's
+clock; the others are left out, each with the reason.
+
+Clock skew (``ClockOffsets``): for each robot, the offset of its clock from the
+receiver's is estimated as max(stamp - receipt time) over the last ``samples`` messages.
+A message's stamp - receipt time is the offset minus the transport delay, and the delay
+is never negative, so the maximum is the offset less the smallest delay seen: a
+lower bound, tight when some message travelled fast. A robot whose |offset| exceeds
+``max_offset_s`` is refused with a message saying so.
+"""
+from __future__ import annotations
+
+import collections
+import math
+from typing import Deque, Dict, List, Optional, Tuple
+
+import numpy as np
+
+from .estimate import TargetEstimate
+
+
+def check_estimate(est: TargetEstimate, frame_id: str = "map") -> Optional[str]:
+    """Why ``est`` cannot be fused (a message naming the robot), or None."""
+    who = "robot %s" % (est.robot or "?")
+    if est.frame_id.lstrip("/") != frame_id.lstrip("/"):
+        return "%s: estimate in frame %r, expected %r" % (who, est.frame_id, frame_id)
+    if not (math.isfinite(est.x) and math.isfinite(est.y)):
+        return "%s: position (%r, %r) is not finite" % (who, est.x, est.y)
+    if not math.isfinite(est.stamp_s):
+        return "%s: stamp %r is not finite" % (who, est.stamp_s)
+    cov = np.asarray(est.cov, dtype=float)
+    if cov.shape != (2, 2) or not np.isfinite(cov).all():
+        return "%s: covariance %s is not a finite 2x2 matrix" % (who, cov.tolist())
+    if cov[0, 0] <= 0.0 or cov[1, 1] <= 0.0:
+        return "%s: variances (%g, %g) m^2 must be positive" % (who, cov[0, 0], cov[1, 1])
+    if abs(cov[0, 1] - cov[1, 0]) > 1e-9 * max(1.0, abs(cov[0, 1])):
+        return "%s: covariance is not symmetric" % who
+    if cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0] <= 0.0:
+        return "%s: covariance is not positive definite" % who
+    return None
+
+
+class ClockOffsets:
+    """Each robot's clock offset [s] (its clock minus the receiver's, a lower bound: see
+    the module's doc) from the last ``samples`` (stamp, receipt time) pairs."""
+
+    def __init__(self, samples: int = 50, max_offset_s: float = 0.5):
+        self.samples = samples
+        self.max_offset_s = max_offset_s
+        self._d: Dict[str, Deque[float]] = {}
+
+    def add(self, robot: str, stamp_s: float, received_s: float) -> None:
+        if math.isfinite(stamp_s) and math.isfinite(received_s):
+            self._d.setdefault(robot, collections.deque(maxlen=self.samples)).append(
+                stamp_s - received_s)
+
+    def offset(self, robot: str) -> Optional[float]:
+        d = self._d.get(robot)
+        return max(d) if d else None
+
+    def offsets(self) -> Dict[str, float]:
+        return {r: max(d) for r, d in self._d.items() if d}
+
+    def refusal(self, robot: str) -> Optional[str]:
+        """Why ``robot`` is refused for its clock (None: its offset is within bound)."""
+        off = self.offset(robot)
+        if off is not None and abs(off) > self.max_offset_s:
+            return "robot %s: clock offset %+.3f s is beyond the bound of %.3f s: " \
+                "estimate refused (synchronise its clock, e.g. chrony)" \
+                % (robot, off, self.max_offset_s)
+        return None
+
+    def forget(self, robot: str) -> None:
+        self._d.pop(robot, None)
+
+
+def associate(latest: Dict[str, TargetEstimate], now_s: float, window_s: float,
+              future_tolerance_s: float = 0.1, frame_id: str = "map",
+              expected: Tuple[str, ...] = (),
+              clocks: Optional[ClockOffsets] = None
+              ) -> Tuple[List[TargetEstimate], Dict[str, str]]:
+    """The estimates to fuse from each robot's newest one, and the robots left out with
+    why (bad, refused for its clock, from the future, stale, or, for the ``expected``
+    robots, missing). Sorted by robot name."""
+    left: Dict[str, str] = {}
+    ok: List[TargetEstimate] = []
+    for robot in sorted(latest):
+        est = latest[robot]
+        reason = check_estimate(est, frame_id) or (clocks.refusal(robot) if clocks else None)
+        if reason is None and est.stamp_s > now_s + future_tolerance_s:
+            reason = "robot %s: stamp %.3f s is %.3f s in the future (clock skew?)" \
+                % (robot, est.stamp_s, est.stamp_s - now_s)
+        if reason is None and est.stamp_s < now_s - window_s:
+            reason = "robot %s: newest estimate is %.3f s old (window %.3f s): stale" \
+                % (robot, now_s - est.stamp_s, window_s)
+        if reason:
+            left[robot] = reason
+        else:
+            ok.append(est)
+    if ok:  # associate around the newest stamp: all within one window of it
+        newest = max(ok, key=lambda e: e.stamp_s)
+        for e in list(ok):
+            if e.stamp_s < newest.stamp_s - window_s:
+                left[e.robot] = "robot %s: estimate %.3f s older than robot %s's newest " \
+                    "(window %.3f s)" % (e.robot, newest.stamp_s - e.stamp_s, newest.robot,
+                                         window_s)
+                ok.remove(e)
+    for robot in expected:
+        if robot not in latest:
+            left[robot] = "robot %s: no estimate received" % robot
+    return ok, left

@@ -1,0 +1,1 @@
+"""The ROS nodes of colloc_fusion (rospy only here)."""
