@@ -21,6 +21,7 @@ from ascc_navigation.mcl import MclNodeParams
 from ascc_navigation.navigation import MoveBaseParams
 from ascc_sim.camera_render import SimCameraParams
 from ascc_sim.runner import SimulatorParams
+from colloc_fusion.node_params import EstimatorParams, FusionParams
 from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
@@ -43,6 +44,7 @@ TABLES = {
     "ascc_ros_pkg/frontier_detector/README.md": [ExplorerNodeParams],
     "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams, SimCameraParams],
     "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
+    "ascc_ros_pkg/colloc_fusion/README.md": [EstimatorParams, FusionParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
                                                  DriveSquareParams],
     "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,

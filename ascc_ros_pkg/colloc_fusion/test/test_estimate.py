@@ -4,7 +4,14 @@ import math
 
 import numpy as np
 
-from colloc_fusion.estimate import bad_measurement, estimate_target, jacobians, pose_cov3
+from colloc_fusion.estimate import (
+    UNKNOWN_VARIANCE,
+    bad_measurement,
+    cov6_of_xy,
+    estimate_target,
+    jacobians,
+    pose_cov3,
+)
 
 
 def test_eq_3_6_3_7_hand_computed():
@@ -68,3 +75,10 @@ def test_bad_measurements_named():
     assert "range" in bad_measurement(0.0, 0.1, 0.01, 0.01)
     assert "bearing" in bad_measurement(1.0, float("inf"), 0.01, 0.01)
     assert "noise" in bad_measurement(1.0, 0.1, 0.0, 0.01)
+
+
+def test_cov6_of_xy():
+    c = np.array(cov6_of_xy(np.array([[0.02, 0.005], [0.005, 0.03]]))).reshape(6, 6)
+    np.testing.assert_array_equal(c[:2, :2], [[0.02, 0.005], [0.005, 0.03]])
+    np.testing.assert_array_equal(np.diag(c)[2:], [UNKNOWN_VARIANCE] * 4)
+    assert np.count_nonzero(c) == 8

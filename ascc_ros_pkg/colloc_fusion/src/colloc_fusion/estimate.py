@@ -17,6 +17,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+UNKNOWN_VARIANCE = 1e6  # [m^2, rad^2] of what a target position does not say (z, rotations)
+
 
 @dataclass
 class TargetEstimate:
@@ -41,6 +43,16 @@ def pose_cov3(cov36: Sequence[float]) -> np.ndarray:
     full = np.asarray(cov36, dtype=float).reshape(6, 6)
     idx = [0, 1, 5]
     return full[np.ix_(idx, idx)]
+
+
+def cov6_of_xy(cov) -> list:
+    """A ROS 6x6 row-major pose covariance (x y z roll pitch yaw) of a target position with
+    the 2x2 x-y covariance ``cov``: z and the rotations are unknown (UNKNOWN_VARIANCE)."""
+    c = [0.0] * 36
+    c[0], c[1], c[6], c[7] = (float(v) for v in np.asarray(cov, dtype=float).ravel())
+    for i in (14, 21, 28, 35):
+        c[i] = UNKNOWN_VARIANCE
+    return c
 
 
 def jacobians(theta: float, d: float, beta: float):
@@ -79,4 +91,15 @@ def bad_measurement(range_m: float, bearing_rad: float, range_sigma_m: float,
             and math.isfinite(bearing_sigma_rad) and bearing_sigma_rad > 0.0):
         return "range/bearing noise (%r m, %r rad) must be positive and finite" \
             % (range_sigma_m, bearing_sigma_rad)
+    return None
+
+
+def pick_detection(detections, kind: str, laser_only: bool, range_laser: int,
+                   range_size: int):
+    """The best (first) detection of ``kind`` with a usable range: laser, or also a size
+    estimate unless ``laser_only``; None if there is none."""
+    sources = (range_laser,) if laser_only else (range_laser, range_size)
+    for det in detections:
+        if det.kind == kind and det.range_source in sources:
+            return det
     return None
