@@ -1,0 +1,238 @@
+#!/usr/bin/env python3
+"""Accuracy benchmark of collaborative localization in the simulator (thesis 3.5).
+
+    python ascc_ros_pkg/colloc_fusion/scripts/bench_colloc.py [--trials 20] [--seed 1]
+        [--settle-s 15] [--record-s 20] [--out DIR]
+
+Trial 0 is the placement of worlds/three_robots.yaml; trials 1..N place the cone and the
+three robots at random (colloc_fusion.bench.random_placement, seeded). Each trial runs
+launch/sim/colloc.launch (centralized, thesis method; own master on its own port) in a
+child process that records every robot's target_estimate and the node's fused_target
+between sim time settle_s and settle_s + record_s, and the cone's true position
+(ground_truth/objects: evaluation only). The errors of each robot alone and of each fusion
+method are then replayed offline on the same estimates (colloc_fusion.bench.replay_errors)
+and summarised: per trial the mean error of each; over the trials the mean and the
+maximum of those means, and in how many trials each fusion beat the best single robot.
+Writes DIR/summary.json and DIR/summary.md (default DIR: /tmp/bench_colloc).
+
+The truth is compared in the simulator's frame: amcl runs on the simulator's ground-truth
+map, so map is that frame and the landmark calibration is not applied (not built yet).
+"""
+import argparse
+import json
+import math
+import os
+import platform
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import yaml
+
+from ascc_sim.world import load_world
+from colloc_fusion.bench import ROBOTS, Placement, random_placement, replay_errors
+from colloc_fusion.estimate import TargetEstimate
+from colloc_fusion.fusion import METHODS
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
+WORLD = os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", "three_robots.yaml")
+LAUNCH = os.path.join(ROOT, "launch", "sim", "colloc.launch")
+BOUNDS = (0.3, 0.3, 8.2, 6.7)  # [m] the office's inside (three_robots map: 8.5 x 7 m)
+
+
+def world_placement(world) -> Placement:
+    cone = next(o for o in world.objects if o.type == "cone")
+    return Placement((cone.pose.x, cone.pose.y),
+                     {r.name: (r.pose.x, r.pose.y, r.pose.yaw) for r in world.robots})
+
+
+def write_world(path, placement, src=WORLD):
+    with open(src) as f:
+        doc = yaml.safe_load(f)
+    doc["map"] = os.path.join(os.path.dirname(src), doc["map"])
+    for r in doc["robots"]:
+        r["pose"] = [round(v, 4) for v in placement.robots[r["name"]]]
+    for o in doc["objects"]:
+        if o["type"] == "cone":
+            o["pose"] = [round(v, 4) for v in placement.cone]
+    with open(path, "w") as f:
+        yaml.safe_dump(doc, f)
+
+
+# -- child: one trial under ROS ------------------------------------------------------------
+def record(args):
+    import rosgraph
+    import rospy
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    from ascc_sim.msg import SimObjectArray
+
+    with open(args.placement) as f:
+        p = json.load(f)
+    cmd = ["roslaunch", "-p", str(args.port), LAUNCH, "world:=" + args.world,
+           "seed:=%d" % args.sim_seed, "truth_xy_m:=[%.4f, %.4f]" % tuple(p["cone"])]
+    cmd += ["%s_pose:=%.4f %.4f %.4f" % ((r,) + tuple(p["robots"][r])) for r in ROBOTS]
+    log = open(args.output + ".launch.log", "w")
+    launch = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+                              start_new_session=True)
+    try:
+        master = rosgraph.Master("/bench_colloc")
+        deadline = time.monotonic() + 120.0
+        while True:
+            try:
+                if master.hasParam("/use_sim_time"):
+                    break
+            except OSError:
+                pass
+            if time.monotonic() > deadline:
+                raise RuntimeError("no master / use_sim_time after 120 s")
+            time.sleep(0.5)
+        rospy.init_node("bench_colloc_recorder", disable_signals=True)
+        ests, fused, truth = [], [], []
+
+        def on_est(msg, robot):
+            c = msg.pose.covariance
+            ests.append([robot, msg.header.stamp.to_sec(), msg.pose.pose.position.x,
+                         msg.pose.pose.position.y, [[c[0], c[1]], [c[6], c[7]]]])
+
+        subs = [rospy.Subscriber(r + "/target_estimate", PoseWithCovarianceStamped, on_est,
+                                 callback_args=r, queue_size=50) for r in ROBOTS]
+        subs.append(rospy.Subscriber("fused_target", PoseWithCovarianceStamped,
+                                     lambda m: fused.append([m.header.stamp.to_sec(),
+                                                             m.pose.pose.position.x,
+                                                             m.pose.pose.position.y]),
+                                     queue_size=50))
+        subs.append(rospy.Subscriber(
+            "ground_truth/objects", SimObjectArray,
+            lambda m: truth.extend((o.pose.position.x, o.pose.position.y)
+                                   for o in m.objects if o.type == "cone"), queue_size=2))
+        end = args.settle_s + args.record_s
+        deadline = time.monotonic() + args.timeout_s
+        while rospy.get_time() < end:
+            if time.monotonic() > deadline or launch.poll() is not None:
+                raise RuntimeError("sim time %.1f s of %.1f after %.0f s wall (launch %s)"
+                                   % (rospy.get_time(), end, args.timeout_s, launch.poll()))
+            time.sleep(0.2)
+        out = {"estimates": ests, "fused": fused, "truth": truth[0] if truth else None,
+               "settle_s": args.settle_s, "end_s": end}
+        with open(args.output, "w") as f:
+            json.dump(out, f)
+        rospy.signal_shutdown("done")
+    finally:
+        if launch.poll() is None:
+            os.killpg(launch.pid, signal.SIGINT)
+            try:
+                launch.wait(30.0)
+            except subprocess.TimeoutExpired:
+                os.killpg(launch.pid, signal.SIGKILL)
+                launch.wait()
+        log.close()
+    return 0
+
+
+# -- parent: trials and summary ------------------------------------------------------------
+def analyse(path):
+    with open(path) as f:
+        rec = json.load(f)
+    ests = [TargetEstimate(r, x, y, np.array(c), t) for r, t, x, y, c in rec["estimates"]]
+    errs = replay_errors(ests, tuple(rec["truth"]), rec["settle_s"], rec["end_s"])
+    node = [math.hypot(x - rec["truth"][0], y - rec["truth"][1])
+            for t, x, y in rec["fused"] if t >= rec["settle_s"]]
+    row = {k: (float(np.mean(v)) if v else None) for k, v in errs.items()}
+    row["node_thesis"] = float(np.mean(node)) if node else None
+    row["samples"] = {k: len(v) for k, v in errs.items()}
+    return row
+
+
+def summarise(rows):
+    keys = list(ROBOTS) + ["best_robot"] + list(METHODS) + ["node_thesis"]
+    for r in rows:
+        singles = [r[k] for k in ROBOTS if r.get(k) is not None]
+        r["best_robot"] = min(singles) if singles else None
+    summ = {}
+    for k in keys:
+        vals = [r[k] for r in rows if r.get(k) is not None]
+        summ[k] = {"mean_m": float(np.mean(vals)) if vals else None,
+                   "max_m": float(np.max(vals)) if vals else None, "trials": len(vals)}
+    for m in METHODS:
+        both = [r for r in rows if r.get(m) is not None and r["best_robot"] is not None]
+        summ[m]["beats_best_robot"] = sum(r[m] < r["best_robot"] for r in both)
+    return summ
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--trials", type=int, default=20, help="random placements")
+    ap.add_argument("--seed", type=int, default=1, help="seed of the placements")
+    ap.add_argument("--settle-s", type=float, default=15.0, help="[s sim] localising")
+    ap.add_argument("--record-s", type=float, default=20.0, help="[s sim] recorded")
+    ap.add_argument("--timeout-s", type=float, default=400.0, help="[s wall] per trial")
+    ap.add_argument("--port", type=int, default=11611, help="first master port")
+    ap.add_argument("--out", default="/tmp/bench_colloc")
+    ap.add_argument("--record", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--world", help=argparse.SUPPRESS)
+    ap.add_argument("--placement", help=argparse.SUPPRESS)
+    ap.add_argument("--sim-seed", type=int, default=0, help=argparse.SUPPRESS)
+    ap.add_argument("--output", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.record:
+        return record(args)
+    os.makedirs(args.out, exist_ok=True)
+    world = load_world(WORLD)
+    rng = np.random.default_rng(args.seed)
+    placements = [world_placement(world)] + [random_placement(world.grid, rng, BOUNDS)
+                                             for _ in range(args.trials)]
+    rows = []
+    for k, p in enumerate(placements):
+        stem = os.path.join(args.out, "trial_%02d" % k)
+        with open(stem + "_placement.json", "w") as f:
+            json.dump({"cone": p.cone, "robots": p.robots}, f)
+        write_world(stem + "_world.yaml", p)
+        port = args.port + k
+        env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
+        t0 = time.monotonic()
+        res = subprocess.run([sys.executable, os.path.abspath(__file__), "--record",
+                              "--world", stem + "_world.yaml", "--placement",
+                              stem + "_placement.json", "--sim-seed", str(k), "--port",
+                              str(port), "--output", stem + ".json", "--settle-s",
+                              str(args.settle_s), "--record-s", str(args.record_s),
+                              "--timeout-s", str(args.timeout_s)], env=env)
+        if res.returncode != 0 or not os.path.isfile(stem + ".json"):
+            print("trial %d failed (see %s.json.launch.log)" % (k, stem), flush=True)
+            rows.append({"trial": k, "failed": True})
+            continue
+        row = analyse(stem + ".json")
+        row.update(trial=k, wall_s=round(time.monotonic() - t0, 1), cone=p.cone)
+        rows.append(row)
+        print("trial %d: %s" % (k, ", ".join("%s %.3f" % (m, row[m]) for m in
+                                             list(ROBOTS) + list(METHODS)
+                                             if row.get(m) is not None)), flush=True)
+    ok = [r for r in rows if not r.get("failed")]
+    summ = summarise(ok)
+    machine = "%s, %s, %d cores, Python %s" % (platform.node(), platform.processor() or
+                                               platform.machine(), os.cpu_count(),
+                                               platform.python_version())
+    with open(os.path.join(args.out, "summary.json"), "w") as f:
+        json.dump({"summary": summ, "trials": rows, "machine": machine,
+                   "args": vars(args)}, f, indent=1)
+    lines = ["| estimate | mean error [m] | max error [m] | trials | beats the best robot |",
+             "|---|---|---|---|---|"]
+    for k, v in summ.items():
+        if v["mean_m"] is None:
+            continue
+        lines.append("| %s | %.3f | %.3f | %d | %s |" % (k, v["mean_m"], v["max_m"],
+                                                        v["trials"],
+                                                        v.get("beats_best_robot", "")))
+    text = "\n".join(lines)
+    with open(os.path.join(args.out, "summary.md"), "w") as f:
+        f.write(text + "\n")
+    print(text)
+    print("%d of %d trials ran; machine: %s" % (len(ok), len(rows), machine))
+    return 0 if len(ok) == len(rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,124 @@
+"""The accuracy benchmark's pure parts (scripts/bench_colloc.py runs the simulator):
+random placements of the cone and the three robots in a world, and the errors of each
+robot alone and of every fusion method, replayed offline on the recorded estimates.
+
+A placement is valid when the cone stands ``cone_clearance_m`` clear of walls and
+furniture, every robot stands ``robot_clearance_m`` clear of them, at ``range_m`` from
+the cone with a free line of sight to it (grid cells and the other robots), the robots
+``min_separation_m`` apart, each facing the cone within +-``max_heading_offset_rad`` (the
+laser sees +-120 deg). All draws follow ``seed``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .estimate import TargetEstimate
+from .fuser import FusionCore
+from .fusion import METHODS
+from .node_params import FusionParams
+
+ROBOTS = ("robotA", "robotB", "robotC")
+
+
+@dataclass
+class Placement:
+    cone: Tuple[float, float]
+    robots: Dict[str, Tuple[float, float, float]]
+
+
+@dataclass
+class PlacementRules:
+    cone_clearance_m: float = 0.5
+    robot_clearance_m: float = 0.35
+    range_m: Tuple[float, float] = (1.2, 3.2)
+    min_separation_m: float = 0.8
+    max_heading_offset_rad: float = 1.0
+    line_of_sight_step_m: float = 0.05
+
+
+def _free(grid, x: float, y: float, clearance_m: float) -> bool:
+    return grid.disc_contact(x, y, clearance_m) is None
+
+
+def _line_of_sight(grid, a, b, step_m: float, others, radius_m: float) -> bool:
+    n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / step_m))
+    ts = np.linspace(0.0, 1.0, n)[1:-1]
+    xs, ys = a[0] + ts * (b[0] - a[0]), a[1] + ts * (b[1] - a[1])
+    if any(grid.value_at(float(x), float(y)) >= 50 for x, y in zip(xs, ys)):
+        return False
+    for o in others:
+        if np.min(np.hypot(xs - o[0], ys - o[1])) < radius_m:
+            return False
+    return True
+
+
+def random_placement(grid, rng: np.random.Generator, bounds: Sequence[float],
+                     rules: Optional[PlacementRules] = None, robot_radius_m: float = 0.165,
+                     tries: int = 20000) -> Placement:
+    """A valid random placement in ``grid`` (an ascc_sim GridMap of walls and furniture)
+    within ``bounds`` (x0, y0, x1, y1) [m]; RuntimeError after ``tries`` draws."""
+    rules = rules or PlacementRules()
+    x0, y0, x1, y1 = bounds
+    for _ in range(tries):
+        cone = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)))
+        if not _free(grid, cone[0], cone[1], rules.cone_clearance_m):
+            continue
+        robots: Dict[str, Tuple[float, float, float]] = {}
+        for name in ROBOTS:
+            for _ in range(500):
+                r = rng.uniform(*rules.range_m)
+                phi = rng.uniform(-math.pi, math.pi)
+                x, y = cone[0] + r * math.cos(phi), cone[1] + r * math.sin(phi)
+                if not (x0 <= x <= x1 and y0 <= y <= y1):
+                    continue
+                if not _free(grid, x, y, rules.robot_clearance_m):
+                    continue
+                if any(math.hypot(x - p[0], y - p[1]) < rules.min_separation_m
+                       for p in robots.values()):
+                    continue
+                if not _line_of_sight(grid, (x, y), cone, rules.line_of_sight_step_m,
+                                      list(robots.values()), robot_radius_m + 0.05):
+                    continue
+                yaw = math.atan2(cone[1] - y, cone[0] - x) + rng.uniform(
+                    -rules.max_heading_offset_rad, rules.max_heading_offset_rad)
+                robots[name] = (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+                break
+            else:
+                break
+        if len(robots) == len(ROBOTS):
+            # the robots placed later must not block the earlier ones' view either
+            if all(_line_of_sight(grid, p[:2], cone, rules.line_of_sight_step_m,
+                                  [q for m, q in robots.items() if m != n],
+                                  robot_radius_m + 0.05) for n, p in robots.items()):
+                return Placement(cone, robots)
+    raise RuntimeError("no valid placement after %d draws" % tries)
+
+
+def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float],
+                  t0: float, t1: float, period_s: float = 0.5, window_s: float = 1.0,
+                  methods: Sequence[str] = METHODS) -> Dict[str, List[float]]:
+    """Errors [m] against ``truth`` between ``t0`` and ``t1`` (sim time [s]): each robot's
+    estimates alone (``robotX``), and every ``method`` fused as the fusion node would every
+    ``period_s`` (each robot's newest estimate within ``window_s``; the estimate is taken
+    as received at its stamp)."""
+    out: Dict[str, List[float]] = {}
+    ests = sorted(estimates, key=lambda e: e.stamp_s)
+    for e in ests:
+        if t0 <= e.stamp_s <= t1:
+            out.setdefault(e.robot, []).append(math.hypot(e.x - truth[0], e.y - truth[1]))
+    for method in methods:
+        core = FusionCore(FusionParams(method=method, window_s=window_s))
+        errs, i = [], 0
+        for t in np.arange(t0, t1 + 1e-9, period_s):
+            while i < len(ests) and ests[i].stamp_s <= t:
+                core.add(ests[i], ests[i].stamp_s)
+                i += 1
+            fused, _ = core.step(float(t))
+            if fused is not None:
+                errs.append(math.hypot(fused.x - truth[0], fused.y - truth[1]))
+        out[method] = errs
+    return out

@@ -1,0 +1,48 @@
+"""The benchmark's pure parts: random placements obey their rules; the offline replay."""
+import math
+import os
+
+import numpy as np
+
+from ascc_sim.world import load_world
+from colloc_fusion.bench import ROBOTS, PlacementRules, random_placement, replay_errors
+from colloc_fusion.estimate import TargetEstimate
+
+WORLD = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "ascc_sim",
+                     "worlds", "three_robots.yaml")
+
+
+def test_random_placements_follow_the_rules():
+    world = load_world(WORLD)
+    rules = PlacementRules()
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        p = random_placement(world.grid, rng, (0.3, 0.3, 8.2, 6.7), rules)
+        assert world.grid.disc_contact(*p.cone, rules.cone_clearance_m) is None
+        assert set(p.robots) == set(ROBOTS)
+        for name, (x, y, yaw) in p.robots.items():
+            d = math.hypot(p.cone[0] - x, p.cone[1] - y)
+            assert rules.range_m[0] <= d <= rules.range_m[1]
+            off = math.remainder(math.atan2(p.cone[1] - y, p.cone[0] - x) - yaw, 2 * math.pi)
+            assert abs(off) <= rules.max_heading_offset_rad + 1e-9
+            assert world.grid.disc_contact(x, y, rules.robot_clearance_m) is None
+            for other, (ox, oy, _) in p.robots.items():
+                if other != name:
+                    assert math.hypot(ox - x, oy - y) >= rules.min_separation_m
+
+
+def test_replay_errors():
+    truth = (1.0, 1.0)
+    ests = []
+    for k in range(20):
+        t = 10.0 + 0.5 * k
+        ests.append(TargetEstimate("robotA", 1.1, 1.0, np.eye(2) * 0.01, t))
+        ests.append(TargetEstimate("robotB", 0.9, 1.0, np.eye(2) * 0.01, t))
+        if k < 10:
+            ests.append(TargetEstimate("robotC", 1.0, 1.3, np.eye(2) * 0.04, t))
+    out = replay_errors(ests, truth, 10.0, 19.5)
+    assert np.allclose(out["robotA"], 0.1) and len(out["robotC"]) == 10
+    for method in ("thesis", "information", "ci"):
+        assert len(out[method]) == 20 and max(out[method]) < 0.1
+    # robotC gone after 14.5 s: A and B alone fuse to the truth
+    assert math.isclose(out["thesis"][-1], 0.0, abs_tol=1e-9)
