@@ -101,3 +101,26 @@ def test_thesis_tables_rows_recompute_differences_from_ours():
     for _, ours, _ in thesis_tables_rows():
         assert math.isclose(ours["dx"], ours["x_fusion"] - ours["x_vicon"])
         assert math.isclose(ours["dy"], ours["y_fusion"] - ours["y_vicon"])
+
+
+WORLD = os.path.join(os.path.dirname(NODES), "..", "ascc_sim", "worlds", "three_robots.yaml")
+
+
+def test_measure_landmarks_on_the_world_map_and_a_moved_guess(tmp_path):
+    res = run("measure_landmarks", "--world-map", WORLD)
+    assert res.returncode == 0, res.stderr
+    out = rows(res.stdout)
+    assert out[0] == ["name", "x_map", "y_map", "x_truth", "y_truth", "residual_m"]
+    assert [r[0] for r in out[1:5]] == ["corner1", "corner2", "corner3", "corner4"]
+    for r in out[1:5]:
+        assert abs(float(r[1]) - float(r[3])) <= 0.025 and abs(float(r[2]) - float(r[4])) \
+            <= 0.025
+    guesses = tmp_path / "g.csv"
+    guesses.write_text("name,x,y\ncorner1,2.3,6.0\ncorner2,6.5,6.0\ncorner3,7.5,2.9\n"
+                       "corner4,4.0,4.0\n")  # corner4's guess is nowhere near a desk
+    res = run("measure_landmarks", "--world-map", WORLD, "--guesses", str(guesses))
+    assert res.returncode == 0 and "corner4 not measured" in res.stderr
+    assert len(rows(res.stdout)) == 5  # header, 3 corners, the transform line
+    guesses.write_text("name,x,y\ncorner1,2.3,6.0\ncorner2,4.0,4.0\n")
+    res = run("measure_landmarks", "--world-map", WORLD, "--guesses", str(guesses))
+    assert res.returncode == 2 and "at least 3" in res.stderr

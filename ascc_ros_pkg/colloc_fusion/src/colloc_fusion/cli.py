@@ -1,4 +1,5 @@
-"""The command-line tools (no rospy): ``fuse_estimates`` and ``thesis_tables``.
+"""The command-line tools (no rospy): ``fuse_estimates``, ``thesis_tables`` and
+``measure_landmarks`` (its usage: ``--help``).
 
     rosrun colloc_fusion fuse_estimates FILE.csv [--method thesis|information|ci]
 
@@ -175,4 +176,58 @@ def thesis_tables_main(argv: Optional[List[str]] = None) -> int:
                   % (name, key, ours[key], printed[key], diff, "  *" if flag else ""))
     print("* %d printed cell(s) differ from what their own inputs give by more than "
           "%.0e m" % (flagged, ROUNDING_M))
+    return 0
+
+
+def measure_landmarks_main(argv: Optional[List[str]] = None) -> int:
+    """measure_landmarks: the desk corners in a map and the truth -> map calibration."""
+    from ascc_common.map_io import MapError, load_map
+    from ascc_sim.world import WorldError, load_world
+
+    from .calibration import CalibrationError
+    from .landmarks import calibrate, measure
+
+    ap = argparse.ArgumentParser(
+        prog="measure_landmarks",
+        description="Measure the calibration landmarks (desk corners) in a map and fit the "
+                    "truth (Vicon) -> map transform (thesis 3.4.1).")
+    src = ap.add_mutually_exclusive_group(required=True)
+    src.add_argument("--map", help="map_server YAML of the robots' map")
+    src.add_argument("--world-map", metavar="WORLD",
+                     help="an ascc_sim world: its ground-truth map (what the simulated "
+                          "robots' amcl uses)")
+    ap.add_argument("--world", help="ascc_sim world YAML whose 'landmark' objects are the "
+                                    "truth positions (default: --world-map)")
+    ap.add_argument("--guesses", help="CSV name,x,y: rough landmark positions in the map "
+                                      "(default: the truth positions)")
+    ap.add_argument("--radius-m", type=float, default=0.3, help="[m] search radius")
+    args = ap.parse_args(argv)
+    try:
+        if not (args.world or args.world_map):
+            raise ValueError("give --world (the landmarks' truth positions)")
+        world = load_world(args.world or args.world_map)
+        truth = {o.name: (o.pose.x, o.pose.y) for o in world.objects if o.type == "landmark"}
+        if args.map:
+            occupancy, info = load_map(args.map)
+        else:
+            occupancy, info = world.truth_map.occupancy, world.truth_map.info
+        guesses = dict(truth)
+        if args.guesses:
+            with open(args.guesses, newline="") as f:
+                guesses = {r["name"]: (float(r["x"]), float(r["y"]))
+                           for r in csv.DictReader(f)}
+        found, failed = measure(occupancy, info, guesses, args.radius_m)
+        for name, why in failed.items():
+            print("measure_landmarks: %s not measured: %s" % (name, why), file=sys.stderr)
+        fit, names = calibrate(truth, found)
+    except (OSError, ValueError, KeyError, MapError, CalibrationError, WorldError) as err:
+        print("measure_landmarks: error: %s" % err, file=sys.stderr)
+        return 2
+    out = csv.writer(sys.stdout, lineterminator="\n")
+    out.writerow(["name", "x_map", "y_map", "x_truth", "y_truth", "residual_m"])
+    for name, res in zip(names, fit.residuals_m):
+        out.writerow([name, "%.4f" % found[name][0], "%.4f" % found[name][1],
+                      "%.4f" % truth[name][0], "%.4f" % truth[name][1], "%.4f" % res])
+    print("# truth -> map: theta %.5f rad, t (%.4f, %.4f) m, rms residual %.4f m over %d"
+          % (fit.theta, fit.tx, fit.ty, fit.rms_m, len(names)))
     return 0
