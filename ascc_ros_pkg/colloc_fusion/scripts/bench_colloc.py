@@ -10,9 +10,10 @@ launch/sim/colloc.launch (centralized, thesis method; own master on its own port
 child process that records every robot's target_estimate and the node's fused_target
 between sim time settle_s and settle_s + record_s, and the cone's true position
 (ground_truth/objects: evaluation only). The errors of each robot alone and of each fusion
-method are then replayed offline on the same estimates (colloc_fusion.bench.replay_errors)
-and summarised: per trial the mean error of each; over the trials the mean and the
-maximum of those means, and in how many trials each fusion beat the best single robot.
+method, without and with the consistency gate (``gate_chi2`` 13.8), are then replayed
+offline on the same estimates (colloc_fusion.bench.replay_errors) and summarised: per
+trial the mean error of each; over the trials the mean and the maximum of those means,
+and in how many trials each fusion beat the best single robot.
 Writes DIR/summary.json and DIR/summary.md (default DIR: /tmp/bench_colloc).
 
 The truth is calibrated into map as in thesis 3.4.1: the desk corners are measured in
@@ -40,6 +41,9 @@ from colloc_fusion.estimate import TargetEstimate
 from colloc_fusion.fusion import METHODS
 from colloc_fusion.landmarks import calibrate, measure
 
+GATE_CHI2 = 13.8  # chi-square 99.9 % for 2 dof: the consistency gate's variants
+VARIANTS = dict([(m, {"method": m}) for m in METHODS]
+                + [(m + "+gate", {"method": m, "gate_chi2": GATE_CHI2}) for m in METHODS])
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 WORLD = os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", "three_robots.yaml")
@@ -152,7 +156,7 @@ def analyse(path, world_path):
     fit = calibration(world_path)
     truth = tuple(fit.apply(np.array(rec["truth"], dtype=float)))
     ests = [TargetEstimate(r, x, y, np.array(c), t) for r, t, x, y, c in rec["estimates"]]
-    errs = replay_errors(ests, truth, rec["settle_s"], rec["end_s"])
+    errs = replay_errors(ests, truth, rec["settle_s"], rec["end_s"], variants=VARIANTS)
     node = [math.hypot(x - truth[0], y - truth[1])
             for t, x, y in rec["fused"] if t >= rec["settle_s"]]
     row = {k: (float(np.mean(v)) if v else None) for k, v in errs.items()}
@@ -164,7 +168,7 @@ def analyse(path, world_path):
 
 
 def summarise(rows):
-    keys = list(ROBOTS) + ["best_robot"] + list(METHODS) + ["node_thesis"]
+    keys = list(ROBOTS) + ["best_robot"] + list(VARIANTS) + ["node_thesis"]
     for r in rows:
         singles = [r[k] for k in ROBOTS if r.get(k) is not None]
         r["best_robot"] = min(singles) if singles else None
@@ -173,7 +177,7 @@ def summarise(rows):
         vals = [r[k] for r in rows if r.get(k) is not None]
         summ[k] = {"mean_m": float(np.mean(vals)) if vals else None,
                    "max_m": float(np.max(vals)) if vals else None, "trials": len(vals)}
-    for m in METHODS:
+    for m in VARIANTS:
         both = [r for r in rows if r.get(m) is not None and r["best_robot"] is not None]
         summ[m]["beats_best_robot"] = sum(r[m] < r["best_robot"] for r in both)
     return summ
@@ -231,7 +235,7 @@ def main():
         row.update(trial=k, wall_s=round(time.monotonic() - t0, 1), cone=p.cone)
         rows.append(row)
         print("trial %d: %s" % (k, ", ".join("%s %.3f" % (m, row[m]) for m in
-                                             list(ROBOTS) + list(METHODS)
+                                             list(ROBOTS) + list(VARIANTS)
                                              if row.get(m) is not None)), flush=True)
     ok = [r for r in rows if not r.get("failed")]
     summ = summarise(ok)

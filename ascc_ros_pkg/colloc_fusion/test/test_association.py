@@ -72,3 +72,18 @@ def test_clock_offsets_lower_bound_and_refusal():
     latest = {r: est(r, 120.0) for r in ("robotA", "robotB")}
     ok, left = associate(latest, 120.0, 1.0, clocks=clocks)
     assert [e.robot for e in ok] == ["robotA"] and "clock offset" in left["robotB"]
+
+
+def test_consistency_gate_leaves_out_the_outlier_only():
+    from colloc_fusion.association import consistency_gate
+    ests = [est("robotA", x=1.0, y=2.0), est("robotB", x=1.05, y=2.0),
+            est("robotC", x=2.2, y=2.0)]  # robotC 1.2 m off, sigma 0.1-0.14 m
+    kept, left = consistency_gate(ests, 13.8)
+    assert [e.robot for e in kept] == ["robotA", "robotB"]
+    assert "robotC" in left["robotC"] and "inconsistent" in left["robotC"]
+    kept, left = consistency_gate(ests, 0.0)  # off
+    assert len(kept) == 3 and left == {}
+    kept, left = consistency_gate(ests[:2] + [est("robotC", x=1.1, y=2.05)], 13.8)
+    assert len(kept) == 3 and left == {}  # all agree within their covariances
+    kept, left = consistency_gate([ests[0], ests[2]], 13.8)
+    assert len(kept) == 2  # of two, neither can be blamed

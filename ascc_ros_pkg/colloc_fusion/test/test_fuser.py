@@ -122,3 +122,12 @@ def test_pick_detection_laser_first_kind_only():
     assert pick_detection(dets, "cone", False, 1, 2) is dets[1]
     assert pick_detection(dets[:2], "cone", True, 1, 2) is None
     assert pick_detection([], "cone", False, 1, 2) is None
+
+
+def test_core_gate_reports_the_inconsistent_robot():
+    c = core(gate_chi2=13.8)
+    for r, x in (("robotA", 1.0), ("robotB", 1.05), ("robotC", 2.5)):
+        c.add(est(r, 1.0, x=x), 1.0)
+    fused, left = c.step(1.0)
+    assert fused.robots == ["robotA", "robotB"] and "inconsistent" in left["robotC"]
+    assert "robotC" in c.status(1.0, fused, left)["left_out"]

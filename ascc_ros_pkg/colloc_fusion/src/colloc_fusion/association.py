@@ -23,6 +23,7 @@ from typing import Deque, Dict, List, Optional, Tuple
 import numpy as np
 
 from .estimate import TargetEstimate
+from .fusion import information_fuse
 
 
 def check_estimate(est: TargetEstimate, frame_id: str = "map") -> Optional[str]:
@@ -115,3 +116,29 @@ def associate(latest: Dict[str, TargetEstimate], now_s: float, window_s: float,
         if robot not in latest:
             left[robot] = "robot %s: no estimate received" % robot
     return ok, left
+
+
+def consistency_gate(estimates: List[TargetEstimate], chi2_max: float
+                     ) -> Tuple[List[TargetEstimate], Dict[str, str]]:
+    """Leave out, one at a time, the estimate that disagrees most with the others while it
+    disagrees beyond ``chi2_max``: the squared Mahalanobis distance between an estimate and
+    the information fusion of the others, with covariance P_i + P_others (13.8: the 99.9 %
+    quantile of chi-square with 2 degrees of freedom). Needs three estimates or more (of
+    two, neither can be blamed); ``chi2_max`` <= 0: no gate."""
+    kept = list(estimates)
+    left: Dict[str, str] = {}
+    while chi2_max > 0.0 and len(kept) >= 3:
+        worst, worst_d2 = None, -1.0
+        for e in kept:
+            others = [o for o in kept if o is not e]
+            mean, cov = information_fuse([o.mean for o in others], [o.cov for o in others])
+            d = e.mean - mean
+            d2 = float(d @ np.linalg.solve(cov + np.asarray(e.cov, dtype=float), d))
+            if d2 > worst_d2:
+                worst, worst_d2 = e, d2
+        if worst is None or worst_d2 <= chi2_max:
+            break
+        kept.remove(worst)
+        left[worst.robot] = "robot %s: inconsistent with the others (Mahalanobis d^2 %.1f " \
+            "> %.1f): left out" % (worst.robot, worst_d2, chi2_max)
+    return kept, left

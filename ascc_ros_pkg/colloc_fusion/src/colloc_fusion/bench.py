@@ -100,18 +100,19 @@ def random_placement(grid, rng: np.random.Generator, bounds: Sequence[float],
 
 def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float],
                   t0: float, t1: float, period_s: float = 0.5, window_s: float = 1.0,
-                  methods: Sequence[str] = METHODS) -> Dict[str, List[float]]:
+                  variants: Optional[Dict[str, dict]] = None) -> Dict[str, List[float]]:
     """Errors [m] against ``truth`` between ``t0`` and ``t1`` (sim time [s]): each robot's
-    estimates alone (``robotX``), and every ``method`` fused as the fusion node would every
-    ``period_s`` (each robot's newest estimate within ``window_s``; the estimate is taken
-    as received at its stamp)."""
+    estimates alone (``robotX``), and every variant {name: FusionParams fields} (default:
+    each method) fused as the fusion node would every ``period_s`` (each robot's newest
+    estimate within ``window_s``; the estimate is taken as received at its stamp)."""
+    variants = variants or {m: {"method": m} for m in METHODS}
     out: Dict[str, List[float]] = {}
     ests = sorted(estimates, key=lambda e: e.stamp_s)
     for e in ests:
         if t0 <= e.stamp_s <= t1:
             out.setdefault(e.robot, []).append(math.hypot(e.x - truth[0], e.y - truth[1]))
-    for method in methods:
-        core = FusionCore(FusionParams(method=method, window_s=window_s))
+    for name, fields in variants.items():
+        core = FusionCore(FusionParams(window_s=window_s, **fields))
         errs, i = [], 0
         for t in np.arange(t0, t1 + 1e-9, period_s):
             while i < len(ests) and ests[i].stamp_s <= t:
@@ -120,5 +121,5 @@ def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float
             fused, _ = core.step(float(t))
             if fused is not None:
                 errs.append(math.hypot(fused.x - truth[0], fused.y - truth[1]))
-        out[method] = errs
+        out[name] = errs
     return out

@@ -6,7 +6,7 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .association import ClockOffsets, associate, check_estimate
+from .association import ClockOffsets, associate, check_estimate, consistency_gate
 from .estimate import TargetEstimate
 from .fusion import Fused, FusionError, fuse
 from .node_params import FusionParams
@@ -38,6 +38,8 @@ class FusionCore:
         left out with why."""
         ok, left = associate(self.latest, now_s, self.p.window_s, self.p.future_tolerance_s,
                              self.p.map_frame, self.robots, self.clocks)
+        ok, inconsistent = consistency_gate(ok, self.p.gate_chi2)
+        left.update(inconsistent)
         if not ok:
             return None, left
         try:

@@ -57,6 +57,9 @@ class FusionParams:
                                            "refused", gt=0.0)
     clock_samples: int = param(50, "[1] messages per robot in the clock offset estimate",
                                ge=1)
+    gate_chi2: float = param(0.0, "[1] with 3+ robots, leave out one whose squared "
+                                  "Mahalanobis distance to the others exceeds this (13.8: "
+                                  "99.9 % for 2 dof; 0: no gate, as the thesis)", ge=0.0)
     map_frame: str = param("map", "frame of the estimates and of the fused target")
     ellipse_sigma: float = param(2.0, "[1] the drawn ellipses' size in standard deviations",
                                  gt=0.0)
