@@ -8,13 +8,15 @@ ground-truth map) with all three robots, once the robots have localised (sim tim
 ~settle_s: amcl's no-motion updates of launch/sim/colloc.launch are done). Then
 (~kill_node) one robot's target_estimator is killed: the fusion must go on from the
 other two, leaving that robot out, within one window (+ one fusion period) of sim time
-after its last estimate, every fused estimate still within ~max_error_m and never NaN.
+after its last estimate, every fused estimate still within ~max_error_m and never NaN;
+then the node is started again and the fusion must take the robot back (within 10 cm).
 """
 import json
 import math
 import sys
 import unittest
 
+import roslaunch
 import rosnode
 import rospy
 import rostest
@@ -107,6 +109,27 @@ class CollocSimTest(unittest.TestCase):
                         map(lambda m: json.loads(m.data), status.all[n0 + 1:]))]
             self.assertLess(max(gaps), 3 * self.period_s, "the fusion paused")
 
+        # the robot comes back: the same node again (its parameters are still set)
+        ns, name = self.kill_node.rsplit("/", 1)
+        launch = roslaunch.scriptapi.ROSLaunch()
+        launch.start()
+        try:
+            launch.launch(roslaunch.core.Node("colloc_fusion", "target_estimator", name=name,
+                                              namespace=ns))
+            n_est = self.estimates[killed_robot].count
+            for topic in self.topics:
+                wait_for(lambda s=self.status[topic]: json.loads(s.msg.data)["robots"]
+                         == ROBOTS, 120.0, "%s fusing %s again" % (topic, killed_robot))
+            self.assertGreater(self.estimates[killed_robot].count, n_est)
+            for topic in self.topics:
+                start = self.fused[topic].count
+                self.fused[topic].wait(120.0, start + self.samples)
+                errors = [self.error(m, cone) for m in self.fused[topic].all[start:]]
+                rospy.loginfo("%s: errors with %s back %s", topic, killed_robot,
+                              ", ".join("%.3f" % e for e in errors))
+                self.assertLess(max(errors), self.max_error_m, topic)
+        finally:
+            launch.stop()
 
 if __name__ == "__main__":
     rostest.rosrun("colloc_fusion", "colloc_sim", CollocSimTest, sys.argv)
