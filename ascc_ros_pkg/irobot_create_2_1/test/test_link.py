@@ -78,3 +78,23 @@ def test_closed_master_is_detected():
             break
     assert not link.is_open
     assert link.failures >= 1
+
+
+def test_a_port_closed_under_a_write_is_a_failure_not_a_crash():
+    """pyserial raises TypeError from write() when the port is closed in another thread
+    (seen at shutdown: the driver's last zero command after the simulator's pty went);
+    the race is not reproducible, so the serial object's write raises it here."""
+    master, slave, path = make_pty()
+    try:
+        link = SerialLink(path, read_timeout_s=0.05)
+        assert link.ensure_open()
+
+        def closed_under_us(_data):
+            raise TypeError("'NoneType' object cannot be interpreted as an integer")
+
+        link._ser.write = closed_under_us
+        assert link.write(b"\x89") is False
+        assert not link.is_open and link.failures >= 1
+    finally:
+        os.close(master)
+        os.close(slave)

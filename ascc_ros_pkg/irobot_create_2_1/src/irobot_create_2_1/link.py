@@ -68,7 +68,8 @@ class SerialLink:
         try:
             self._ser.write(data)
             return True
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, OSError, TypeError) as exc:
+            # TypeError: pyserial's write when the port is closed under it (at shutdown)
             self._fail("write to %s failed: %s" % (self.port, exc))
             return False
 
