@@ -19,6 +19,8 @@ APT_PACKAGES=(
   libactionlib-msgs-dev libdiagnostic-msgs-dev libgeometry-msgs-dev libnav-msgs-dev
   libsensor-msgs-dev libvisualization-msgs-dev libmove-base-msgs-dev libstd-msgs-dev
   libstd-srvs-dev libtf2-msgs-dev python3-venv python3-dev
+  ros-robot-state-publisher libdiagnostic-aggregator-dev libdiagnostic-aggregator-tools
+  liburdfdom-tools
 )
 
 log() { printf '[setup] %s\n' "$*"; }

@@ -22,6 +22,7 @@ from ascc_navigation.navigation import MoveBaseParams
 from ascc_sim.camera_render import SimCameraParams
 from ascc_sim.runner import SimulatorParams
 from colloc_fusion.node_params import EstimatorParams, FusionParams
+from asccbot_bringup.description import DescriptionParams
 from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
@@ -45,6 +46,7 @@ TABLES = {
     "ascc_ros_pkg/ascc_sim/README.md": [SimulatorParams, SimCameraParams],
     "ascc_ros_pkg/ascc_eval/README.md": [FollowMonitorParams],
     "ascc_ros_pkg/colloc_fusion/README.md": [EstimatorParams, FusionParams],
+    "ascc_ros_pkg/asccbot_bringup/README.md": [DescriptionParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
                                                  DriveSquareParams],
     "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,
@@ -124,6 +126,8 @@ def test_readme_defaults_match_the_dataclass(cls, header, rows):
         for name, text in zip(names, values):
             checked.add(name)
             value = _value(text)
+            if name is not None and isinstance(known[name], list):  # `0.1 0.2 0.3`
+                value = [_value(v) for v in text.strip("`").split()]
             if name is None or value is None or known[name] is None:
                 continue  # unknown name, a formula, or unset by default (said in words)
             default = known[name]

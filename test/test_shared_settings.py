@@ -4,9 +4,11 @@ cmd_timeout_s is one launch argument in the launch files that start both driver 
 navigator; these checks cover the package defaults behind it and the copies that live in
 two YAML files because two programs read them.
 """
+import math
 import os
 import re
 
+import pytest
 import yaml
 
 from ascc_common.params import from_params, tree_getter
@@ -92,3 +94,24 @@ def test_camera_mount_defaults_agree():
                  "ascc_ros_pkg/target_follower/launch/follow.launch"):
         for name, value in mount.items():
             assert _arg_default(path, name) == value, (path, name)
+
+
+def test_robot_description_agrees_with_the_simulated_robot():
+    """The URDF's sensor mounts (omnivision layout, the simulated ASCCbot's) and base:
+    the simulator's laser mount (asccbot.yaml), the camera model's mount (the simulated
+    Q24's and the detector's default), the simulator's footprint and wheel base."""
+    from ascc_common.camera_model import PanoramicCamera
+    from asccbot_bringup.description import DescriptionParams, base_dimensions, mounts
+    p = DescriptionParams()
+    assert p.layout == "omnivision" and p.robot_model == "create_1"
+    m = mounts(p)
+    sim = _yaml("ascc_sim", "config", "asccbot.yaml")
+    sim_laser = (sim["laser_x_m"], sim["laser_y_m"], sim["laser_z_m"],
+                 math.radians(sim["laser_yaw_deg"]))
+    assert m["laser"] == pytest.approx(sim_laser, abs=1e-9)
+    cam = PanoramicCamera()
+    assert m["camera"] == pytest.approx(
+        (cam.mount_x_m, cam.mount_y_m, cam.mount_z_m, cam.mount_yaw_rad), abs=1e-9)
+    diameter, _, wheel_base = base_dimensions("create_1")
+    assert 2 * sim["radius_m"] == pytest.approx(diameter)
+    assert sim["wheel_base_m"] == wheel_base

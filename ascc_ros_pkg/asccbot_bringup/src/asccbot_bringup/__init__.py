@@ -1,0 +1,1 @@
+"""The ASCCbot as hardware: its robot description and the bring-up's helpers."""
