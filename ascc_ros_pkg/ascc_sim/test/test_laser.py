@@ -219,8 +219,8 @@ def test_scan_is_deterministic_per_seed():
     a = model.scan(2.5, 7.6, 0.2, world.circles, np.random.default_rng(5))
     b = model.scan(2.5, 7.6, 0.2, world.circles, np.random.default_rng(5))
     c = model.scan(2.5, 7.6, 0.2, world.circles, np.random.default_rng(6))
-    assert np.array_equal(a, b, equal_nan=True)
-    assert not np.array_equal(a, c, equal_nan=True)
+    assert np.allclose(a, b, rtol=0, atol=0, equal_nan=True)
+    assert not np.allclose(a, c, rtol=0, atol=0, equal_nan=True)
 
 
 def test_glass_cabinet_swallows_returns():

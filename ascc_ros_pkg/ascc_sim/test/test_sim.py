@@ -220,8 +220,8 @@ def test_same_seed_same_run():
         return (r.x, r.y, r.yaw, c.pose), np.array(out)
 
     a, b = trace(4), trace(4)
-    assert a[0] == b[0] and np.array_equal(a[1], b[1], equal_nan=True)
-    assert not np.array_equal(trace(5)[1], a[1], equal_nan=True)
+    assert a[0] == b[0] and np.allclose(a[1], b[1], rtol=0, atol=0, equal_nan=True)
+    assert not np.allclose(trace(5)[1], a[1], rtol=0, atol=0, equal_nan=True)
 
 
 class FakeLink:

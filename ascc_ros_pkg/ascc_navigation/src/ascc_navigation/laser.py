@@ -126,8 +126,8 @@ def _grazing_gain(origin: np.ndarray, angles: np.ndarray, r: np.ndarray,
         tx = np.where(missing, nx, tx)
         ty = np.where(missing, ny, ty)
     length = np.hypot(tx, ty)
-    ok = np.isfinite(length) & (length > 1e-9) & (length < SURFACE_GAP_M)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):  # NaN lengths: numpy < 1.19 warns
+        ok = np.isfinite(length) & (length > 1e-9) & (length < SURFACE_GAP_M)
         sin_graze = np.abs(np.cos(angles) * ty - np.sin(angles) * tx) / length
     gain = 1.0 / np.clip(sin_graze, 1.0 / MAX_PULLBACK_GAIN, 1.0)
     return np.where(ok, gain, 1.0)
