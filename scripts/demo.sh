@@ -8,11 +8,16 @@
 #   make demo ARGS="real_time_factor:=1 rviz:=true" # watch it (needs Debian's rviz)
 # `bash scripts/demo.sh --square` runs the foundation demo instead: the driver drives the
 # virtual Create in a 1 m square and prints the odometry.
+# Each run has its own master on a free loopback port unless ROS_MASTER_URI is set
+# (scripts/ros_isolation.sh); it prints how to attach rostopic or rviz to it.
 set -eo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 # shellcheck disable=SC1091
+source scripts/ros_isolation.sh
+# shellcheck disable=SC1091
 source env.sh
+echo "demo: ROS master $ROS_MASTER_URI; attach with: ROS_MASTER_URI=$ROS_MASTER_URI ROS_IP=${ROS_IP:-127.0.0.1} rostopic list (or rviz -d rviz/exploration.rviz)"
 if [ "${1:-}" = "--square" ]; then
   shift
   exec roslaunch launch/demo_square.launch "$@"
