@@ -1,0 +1,159 @@
+"""Every rviz config against the launch file that shows it: each display's plugin exists
+(rviz's plugin description), each enabled display's topic is published with a type that
+display takes, its robot description parameter is set, and the fixed frame and every
+frame the TF display expects are in TF. rviz itself is not started (no display needed):
+these are the errors rviz would show in its Displays panel (a missing topic or type,
+"Fixed Frame [map] does not exist", a plugin that is not found).
+
+Each launch runs on its own master on a free loopback port (scripts/ros_isolation.sh).
+``scripts/rviz_screenshots.py`` renders the same configs with the same launch files.
+"""
+import os
+import socket
+import subprocess
+import time
+import xml.etree.ElementTree as ET
+import xmlrpc.client
+
+import pytest
+import yaml
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RVIZ_PLUGINS = "/usr/share/rviz/plugin_description.xml"
+
+# config -> the launch file that shows it and its arguments (rviz/launches.yaml)
+with open(os.path.join(ROOT, "rviz", "launches.yaml")) as _f:
+    CONFIGS = {"rviz/" + name: (spec["launch"], spec["args"])
+               for name, spec in yaml.safe_load(_f).items()}
+# display class -> (topic key, accepted message types); None: no topic
+DISPLAY_TYPES = {
+    "rviz/Grid": None, "rviz/TF": None, "rviz/RobotModel": None,
+    "rviz/Map": ("Topic", {"nav_msgs/OccupancyGrid"}),
+    "rviz/MarkerArray": ("Marker Topic", {"visualization_msgs/MarkerArray"}),
+    "rviz/Path": ("Topic", {"nav_msgs/Path"}),
+    "rviz/Pose": ("Topic", {"geometry_msgs/PoseStamped"}),
+    "rviz/LaserScan": ("Topic", {"sensor_msgs/LaserScan"}),
+    "rviz/Odometry": ("Topic", {"nav_msgs/Odometry"}),
+    "rviz/Image": ("Image Topic", {"sensor_msgs/Image"}),
+    "rviz/PointStamped": ("Topic", {"geometry_msgs/PointStamped"}),
+    "rviz/Polygon": ("Topic", {"geometry_msgs/PolygonStamped"}),
+}
+FRAMES_SNIPPET = """
+import sys, time, rospy, tf2_ros, yaml
+rospy.init_node("rviz_config_check", anonymous=True)
+buf = tf2_ros.Buffer(); tf2_ros.TransformListener(buf)
+want = sys.argv[1:]
+deadline = time.time() + 90
+while time.time() < deadline:
+    frames = yaml.safe_load(buf.all_frames_as_yaml()) or {}
+    names = set(frames) | {f["parent"] for f in frames.values()}
+    if all(w in names for w in want):
+        break
+    time.sleep(1)
+print(" ".join(sorted(names)))
+"""
+
+
+def _displays(items):
+    for d in items:
+        yield d
+        yield from _displays(d.get("Displays", []))
+
+
+def _config(path):
+    with open(os.path.join(ROOT, path)) as f:
+        manager = yaml.safe_load(f)["Visualization Manager"]
+    return manager, list(_displays(manager["Displays"]))
+
+
+def _env():
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOSTNAME")}
+    out = subprocess.run(["bash", "-c", "source scripts/ros_isolation.sh; "
+                          "echo $ROS_MASTER_URI $ROS_IP"], cwd=ROOT, env=env,
+                         capture_output=True, text=True, check=True).stdout.split()
+    env.update(ROS_MASTER_URI=out[0], ROS_IP=out[1])
+    return env
+
+
+def test_every_config_is_checked_and_its_plugins_exist():
+    assert sorted(CONFIGS) == sorted("rviz/" + f for f in os.listdir(os.path.join(ROOT, "rviz"))
+                                     if f.endswith(".rviz"))
+    classes = {c.get("name") for c in ET.parse(RVIZ_PLUGINS).getroot().iter("class")}
+    for path in CONFIGS:
+        _, displays = _config(path)
+        for d in displays:
+            assert d["Class"] in classes, (path, d["Class"])
+            assert d["Class"] in DISPLAY_TYPES, "%s: add %s to DISPLAY_TYPES" % (path,
+                                                                                  d["Class"])
+
+
+def _free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def _wait_for_topics(master, wanted, deadline):
+    types = None  # None until the master answers
+    while time.time() < deadline:
+        try:
+            types = dict(master.getTopicTypes("/rviz_config_check")[2])
+        except OSError:
+            pass
+        if types is not None and all(t in types for t in wanted):
+            break
+        time.sleep(2)
+    return types or {}
+
+
+@pytest.mark.parametrize("path", sorted(CONFIGS))
+def test_config_against_its_launch(path):
+    manager, displays = _config(path)
+    launch, args = CONFIGS[path]
+    env = _env()
+    wanted = {}
+    for d in displays:
+        spec = DISPLAY_TYPES[d["Class"]]
+        if spec and d.get("Enabled", True):
+            topic = d[spec[0]]
+            wanted["/" + topic.lstrip("/")] = (spec[1], d["Name"])
+    args = [a.replace("FREE", str(_free_port())) for a in args]
+    run = subprocess.Popen(["bash", "-c", "source env.sh; exec roslaunch %s %s"
+                            % (launch, " ".join(args))], cwd=ROOT, env=env,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
+                           start_new_session=True)
+    try:
+        master = xmlrpc.client.ServerProxy(env["ROS_MASTER_URI"])
+        types = _wait_for_topics(master, wanted, time.time() + 150)
+        problems = ["%s (%s): %s" % (topic, name, "not published" if topic not in types else
+                                     "type %s, the display takes %s" % (types[topic],
+                                                                        sorted(accepted)))
+                    for topic, (accepted, name) in wanted.items()
+                    if types.get(topic) not in accepted]
+        want_frames = [manager["Global Options"]["Fixed Frame"]]
+        for d in displays:
+            if d["Class"] == "rviz/TF":
+                want_frames += [f for f, v in d.get("Frames", {}).items()
+                                if isinstance(v, dict) and v.get("Value")]
+        names = subprocess.run(["python3", "-c", FRAMES_SNIPPET] + want_frames, cwd=ROOT,
+                               env=env, capture_output=True, text=True,
+                               timeout=150).stdout.split()
+        problems += ["frame %s not in TF" % f for f in want_frames if f not in names]
+        for d in displays:  # after TF: the launch has set its parameters
+            if d["Class"] == "rviz/RobotModel" and d.get("Enabled", True):
+                code, _, urdf = master.getParam("/rviz_config_check",
+                                                "/" + d["Robot Description"])
+                if code != 1 or "<robot" not in urdf:
+                    problems.append("%s: no robot description" % d["Name"])
+        assert run.poll() is None, "%s ended" % launch
+        assert problems == [], "%s with %s:\n%s" % (path, launch, "\n".join(problems))
+    finally:
+        if run.poll() is None:
+            os.killpg(run.pid, 2)
+        try:
+            run.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(run.pid, 9)
