@@ -6,6 +6,7 @@
 # line "N passed, N failed" over all of them; exits non-zero on any failure.
 #   --lint-only     only ruff, vermin (Python 3.8 compatibility) and catkin_lint
 #   --no-rostest    skip the rostest part
+# The pure tests also run under Python 3.8 (scripts/test_py38.sh pins, focal).
 #   ROSTEST_FILTER=regex   run only the .test files whose path matches (none: a failure)
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -61,6 +62,27 @@ elif [ "$rc" -ne 0 ]; then
 fi
 passed=$((passed + py_pass)); failed=$((failed + py_fail))
 summary+=("pytest $py_pass passed, $py_fail failed")
+
+# The robots run Python 3.8: the pure tests again under 3.8, with requirements.txt's 3.8
+# pins and with Ubuntu 20.04's library versions (scripts/test_py38.sh).
+for profile in pins focal; do
+  step "pytest under Python 3.8 ($profile)"
+  py38_out="$(mktemp)"
+  bash scripts/test_py38.sh "$profile" 2>&1 | tee "$py38_out"
+  rc=${PIPESTATUS[0]}
+  p38_pass=$(tail -1 "$py38_out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
+  p38_fail=$(tail -1 "$py38_out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
+  rm -f "$py38_out"
+  if [ "$rc" -eq 3 ]; then
+    summary+=("pytest-3.8 $profile SKIPPED (no Python 3.8 interpreter)")
+    continue
+  elif [ "$rc" -ne 0 ]; then
+    [ "$p38_fail" -eq 0 ] && p38_fail=1
+    failures+=("pytest under Python 3.8 $profile (rc=$rc): $p38_fail failed")
+  fi
+  passed=$((passed + p38_pass)); failed=$((failed + p38_fail))
+  summary+=("pytest-3.8 $profile $p38_pass passed, $p38_fail failed")
+done
 
 if [ "$no_rostest" -eq 0 ]; then
   # Each .test runs with its own master; its verdict is read from rostest's JUnit XML
