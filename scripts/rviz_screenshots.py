@@ -24,7 +24,13 @@ import yaml
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def _free_port():
+def load_specs():
+    """rviz/launches.yaml: config name -> launch, args, image, wait_s."""
+    with open(os.path.join(ROOT, "rviz", "launches.yaml")) as f:
+        return yaml.safe_load(f)
+
+
+def free_port():
     s = socket.socket()
     s.bind(("127.0.0.1", 0))
     port = s.getsockname()[1]
@@ -32,7 +38,8 @@ def _free_port():
     return port
 
 
-def _isolated_env():
+def isolated_env():
+    """The environment of a run of its own: scripts/ros_isolation.sh's master and ROS_IP."""
     env = {k: v for k, v in os.environ.items()
            if k not in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOSTNAME")}
     out = subprocess.run(["bash", "-c", "source scripts/ros_isolation.sh; "
@@ -43,8 +50,8 @@ def _isolated_env():
 
 
 def shoot(name, spec, out_dir):
-    env = _isolated_env()
-    args = [a.replace("FREE", str(_free_port())) for a in spec["args"]]
+    env = isolated_env()
+    args = [a.replace("FREE", str(free_port())) for a in spec["args"]]
     print("rviz_screenshots: %s <- %s %s (%s)" % (name, spec["launch"], " ".join(args),
                                                   env["ROS_MASTER_URI"]), flush=True)
     run = subprocess.Popen(["bash", "-c", "source env.sh; exec roslaunch %s %s"
@@ -78,8 +85,7 @@ def main():
     ap.add_argument("--out-dir", default=os.path.join(ROOT, "docs", "images"))
     ap.add_argument("configs", nargs="*", help="config names (default: all)")
     a = ap.parse_args()
-    with open(os.path.join(ROOT, "rviz", "launches.yaml")) as f:
-        specs = yaml.safe_load(f)
+    specs = load_specs()
     names = [os.path.basename(c) for c in a.configs] or sorted(specs)
     unknown = [n for n in names if n not in specs]
     if unknown:

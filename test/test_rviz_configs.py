@@ -8,8 +8,8 @@ these are the errors rviz would show in its Displays panel (a missing topic or t
 Each launch runs on its own master on a free loopback port (scripts/ros_isolation.sh).
 ``scripts/rviz_screenshots.py`` renders the same configs with the same launch files.
 """
+import importlib.util
 import os
-import socket
 import subprocess
 import time
 import xml.etree.ElementTree as ET
@@ -21,10 +21,14 @@ import yaml
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RVIZ_PLUGINS = "/usr/share/rviz/plugin_description.xml"
 
-# config -> the launch file that shows it and its arguments (rviz/launches.yaml)
-with open(os.path.join(ROOT, "rviz", "launches.yaml")) as _f:
-    CONFIGS = {"rviz/" + name: (spec["launch"], spec["args"])
-               for name, spec in yaml.safe_load(_f).items()}
+# the screenshot script's helpers: the launches of rviz/launches.yaml, isolated runs
+_spec = importlib.util.spec_from_file_location(
+    "rviz_screenshots", os.path.join(ROOT, "scripts", "rviz_screenshots.py"))
+shots = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(shots)
+# config -> the launch file that shows it and its arguments
+CONFIGS = {"rviz/" + name: (spec["launch"], spec["args"])
+           for name, spec in shots.load_specs().items()}
 # display class -> (topic key, accepted message types); None: no topic
 DISPLAY_TYPES = {
     "rviz/Grid": None, "rviz/TF": None, "rviz/RobotModel": None,
@@ -66,16 +70,6 @@ def _config(path):
     return manager, list(_displays(manager["Displays"]))
 
 
-def _env():
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOSTNAME")}
-    out = subprocess.run(["bash", "-c", "source scripts/ros_isolation.sh; "
-                          "echo $ROS_MASTER_URI $ROS_IP"], cwd=ROOT, env=env,
-                         capture_output=True, text=True, check=True).stdout.split()
-    env.update(ROS_MASTER_URI=out[0], ROS_IP=out[1])
-    return env
-
-
 def test_every_config_is_checked_and_its_plugins_exist():
     assert sorted(CONFIGS) == sorted("rviz/" + f for f in os.listdir(os.path.join(ROOT, "rviz"))
                                      if f.endswith(".rviz"))
@@ -86,14 +80,6 @@ def test_every_config_is_checked_and_its_plugins_exist():
             assert d["Class"] in classes, (path, d["Class"])
             assert d["Class"] in DISPLAY_TYPES, "%s: add %s to DISPLAY_TYPES" % (path,
                                                                                   d["Class"])
-
-
-def _free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def _wait_for_topics(master, wanted, deadline):
@@ -113,14 +99,14 @@ def _wait_for_topics(master, wanted, deadline):
 def test_config_against_its_launch(path):
     manager, displays = _config(path)
     launch, args = CONFIGS[path]
-    env = _env()
+    env = shots.isolated_env()
     wanted = {}
     for d in displays:
         spec = DISPLAY_TYPES[d["Class"]]
         if spec and d.get("Enabled", True):
             topic = d[spec[0]]
             wanted["/" + topic.lstrip("/")] = (spec[1], d["Name"])
-    args = [a.replace("FREE", str(_free_port())) for a in args]
+    args = [a.replace("FREE", str(shots.free_port())) for a in args]
     run = subprocess.Popen(["bash", "-c", "source env.sh; exec roslaunch %s %s"
                             % (launch, " ".join(args))], cwd=ROOT, env=env,
                            stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
