@@ -1,0 +1,1 @@
+"""Semantic mapping through human activity recognition (thesis chapter 5)."""
