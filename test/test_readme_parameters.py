@@ -27,7 +27,9 @@ from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
+from semantic_mapping.emulator import EmulatorParams
 from semantic_mapping.location import LocationParams
+from semantic_mapping.wearable import ReceiverParams
 from target_follower.camera_driver import Q24CameraParams
 from target_follower.color_detector import ColorParams
 from target_follower.following import TargetFollowerParams
@@ -54,7 +56,8 @@ TABLES = {
                                                 LogoParams, TargetFollowerParams],
     "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams,
                                              GestureNodeParams, GestureControlNodeParams],
-    "ascc_ros_pkg/semantic_mapping/README.md": [LocationParams],
+    "ascc_ros_pkg/semantic_mapping/README.md": [LocationParams, ReceiverParams,
+                                                 EmulatorParams],
 }
 
 

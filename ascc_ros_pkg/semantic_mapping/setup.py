@@ -2,4 +2,5 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["semantic_mapping"], package_dir={"": "src"}))
+setup(**generate_distutils_setup(packages=["semantic_mapping", "semantic_mapping.ros"],
+                                 package_dir={"": "src"}))

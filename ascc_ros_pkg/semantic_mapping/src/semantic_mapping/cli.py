@@ -27,10 +27,9 @@ import sys
 from typing import List, Optional, Sequence
 
 import numpy as np
-import yaml
 
 from .evaluation import forward_fusion_exact, forward_fusion_sampled, sequential, tied_pairs
-from .models import DEFAULT_MODELS, ModelError, Models, load_models
+from .models import DEFAULT_MODELS, ModelError, Models, load_models, read_yaml
 
 DEFAULT_THESIS = os.path.join(os.path.dirname(DEFAULT_MODELS), "thesis_results.yaml")
 
@@ -44,12 +43,7 @@ def _common(ap: argparse.ArgumentParser) -> None:
 
 def _load(args) -> tuple:
     models = load_models(args.models)
-    with open(args.thesis, encoding="utf-8") as f:
-        try:
-            thesis = yaml.safe_load(f)
-        except yaml.YAMLError as e:
-            raise ModelError("%s: not valid YAML: %s" % (args.thesis, str(e).splitlines()[0])) \
-                from None
+    thesis = read_yaml(args.thesis)
     if not isinstance(thesis, dict):
         raise ModelError("%s: expected a mapping" % args.thesis)
     return models, thesis

@@ -135,15 +135,20 @@ def _rules(doc: Dict[str, Any], names: Dict[str, Tuple[str, ...]],
     return rules
 
 
-def load_models(path: str = DEFAULT_MODELS) -> Models:
-    """The tables of a models YAML file, checked (ModelError otherwise)."""
+def read_yaml(path: str) -> Any:
+    """A YAML file's document; ModelError naming the file for a syntax error (OSError as
+    usual when it cannot be opened)."""
     with open(path, encoding="utf-8") as f:
         try:
-            doc = yaml.safe_load(f)
+            return yaml.safe_load(f)
         except yaml.YAMLError as e:
             raise ModelError("%s: not valid YAML: %s" % (path, str(e).splitlines()[0])) \
                 from None
-    return models_from_dict(doc, path)
+
+
+def load_models(path: str = DEFAULT_MODELS) -> Models:
+    """The tables of a models YAML file, checked (ModelError otherwise)."""
+    return models_from_dict(read_yaml(path), path)
 
 
 def models_from_dict(doc: Any, path: str = "(models)") -> Models:
