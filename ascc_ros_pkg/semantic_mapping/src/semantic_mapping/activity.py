@@ -1,0 +1,235 @@
+"""Activity recognition from the waist and thigh accelerometers (thesis 5.4.2). Pure Python
+(numpy, scikit-learn, hmmlearn); no ROS.
+
+Features (as in 5.4.2): per window of ``window_s`` every ``hop_s``, the mean and the
+variance of each axis of the 3D acceleration of each sensor (12 numbers), standardised;
+``features="extended"`` adds the variance of the sample differences (18 numbers).
+Three recognizers, all trained on labelled windows of several persons:
+
+    nn       a neural network (scikit-learn MLPClassifier): P(A | x_t)
+    hmm      the features clustered into discrete symbols (k-means, 5.4.2) and a discrete
+             HMM over them (hmmlearn CategoricalHMM; start, transition and emission
+             probabilities counted from the labelled sequences, add-one smoothed): the
+             filtered P(A_t | s_1..t)
+    nn_hmm   the combination: the HMM's transition model as the prior of each window and
+             the network's posterior over the training prior as the likelihood (the
+             hybrid NN/HMM): P(A_t | x_1..t) by the forward recursion
+
+Unknown activity: a window whose features are far from every class (the Mahalanobis
+distance to each class's mean under its covariance, plus ``unknown_ridge`` on the
+diagonal, above that class's ``unknown_quantile`` of its own training windows' distances)
+is ``unknown``, whatever a classifier says; an unknown window does not move the HMM's
+belief (its likelihood is flat). A shrunk covariance (Ledoit-Wolf) was tried first: its
+shrinkage towards the mean variance let a class with one large variance feature (eating's
+bends) swallow postures far from it on the others (bending, 0 % unknown).
+
+The activity prior fed back from the room belief (`fusion.activity_prior`) enters as
+P(A | x, R) ∝ P(A | x) P_t(A) / P_train(A) (`Recognizer.posteriors(..., prior=)`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+ACTIVITIES = ("lying", "typing", "eating", "sitting", "opening_door",    # 5.5
+              "sit_to_stand", "stand_to_sit", "standing", "walking")    # fig. 5.15
+UNKNOWN = "unknown"
+KINDS = ("nn", "hmm", "nn_hmm")
+
+
+@dataclass
+class RecognizerConfig:
+    window_s: float = 3.0          # [s] feature window
+    hop_s: float = 0.5             # [s] between windows
+    rate_hz: float = 20.0          # [Hz] sample rate of the sensors
+    kind: str = "nn_hmm"           # nn | hmm | nn_hmm
+    features: str = "thesis"       # thesis (mean, variance) | extended (+ difference var.)
+    n_symbols: int = 48            # k-means clusters (HMM observation symbols)
+    hidden: Tuple[int, ...] = (64,)  # network's hidden layer sizes
+    unknown_quantile: float = 0.995  # of a class's own training distances
+    unknown_ridge: float = 0.01    # added to each class covariance (standardised units)
+    seed: int = 0
+    classes: Tuple[str, ...] = field(default=ACTIVITIES)
+
+    def samples(self) -> Tuple[int, int]:
+        return (max(1, int(round(self.window_s * self.rate_hz))),
+                max(1, int(round(self.hop_s * self.rate_hz))))
+
+
+def _window_moments(a: np.ndarray, ends: np.ndarray, w: int):
+    """Mean and variance of each column of ``a`` over the windows [end - w, end)."""
+    c1 = np.vstack([np.zeros((1, a.shape[1])), np.cumsum(a, axis=0)])
+    c2 = np.vstack([np.zeros((1, a.shape[1])), np.cumsum(a * a, axis=0)])
+    mean = (c1[ends] - c1[ends - w]) / w
+    return mean, np.maximum((c2[ends] - c2[ends - w]) / w - mean ** 2, 0.0)
+
+
+def window_features(waist: np.ndarray, thigh: np.ndarray,
+                    config: RecognizerConfig) -> Tuple[np.ndarray, np.ndarray]:
+    """(features, end index of each window) for (n_samples, 3) accelerations [m/s^2]
+    (cumulative sums, no loop). Per sensor, waist then thigh: the mean and the variance
+    of each axis (``features`` "thesis": 12 numbers); "extended" adds the variance of the
+    sample-to-sample differences of each axis (18 numbers), which grows with a motion's
+    frequency (a tremor, against slow bends of the same variance)."""
+    w, hop = config.samples()
+    a = np.hstack([np.asarray(waist, float), np.asarray(thigh, float)])
+    ends = np.arange(w, a.shape[0] + 1, hop)
+    mean, var = _window_moments(a, ends, w)
+    parts = [[mean[:, :3], var[:, :3]], [mean[:, 3:], var[:, 3:]]]
+    if config.features == "extended":
+        d = np.vstack([np.zeros((1, 6)), np.diff(a, axis=0)])
+        _, dvar = _window_moments(d, ends, w)
+        parts[0].append(dvar[:, :3])
+        parts[1].append(dvar[:, 3:])
+    return np.hstack(parts[0] + parts[1]), ends
+
+
+def window_labels(labels: Sequence[str], ends: np.ndarray,
+                  config: RecognizerConfig) -> Tuple[np.ndarray, np.ndarray]:
+    """(the label at each window's centre, whether the whole window has that label)."""
+    w, _ = config.samples()
+    lab = np.asarray(labels, dtype=object)
+    centre = lab[ends - w // 2 - 1]
+    change = np.concatenate([[0], np.cumsum(lab[1:] != lab[:-1])])
+    pure = change[ends - 1] == change[ends - w]
+    return centre, pure
+
+
+def _forward(log_lik: np.ndarray, start: np.ndarray, trans: np.ndarray) -> np.ndarray:
+    """Filtered posteriors P(A_t | obs_1..t) of an HMM with per-step log-likelihoods."""
+    out = np.empty_like(log_lik)
+    belief = start
+    for t in range(log_lik.shape[0]):  # one step per window (a few per second)
+        pred = belief if t == 0 else belief @ trans
+        post = pred * np.exp(log_lik[t] - log_lik[t].max())
+        belief = post / post.sum()
+        out[t] = belief
+    return out
+
+
+class Recognizer:
+    """Trained on windows of several persons; `posteriors` for a person's sequence."""
+
+    def __init__(self, config: RecognizerConfig):
+        if config.kind not in KINDS:
+            raise ValueError("recognizer kind %r not in %s" % (config.kind, KINDS))
+        self.config = config
+
+    # -- training ---------------------------------------------------------------------
+    def fit(self, sequences: List[Tuple[np.ndarray, np.ndarray]]) -> Recognizer:
+        """``sequences``: (features (n, 12), label indices (n,)) per recording."""
+        from hmmlearn.hmm import CategoricalHMM
+        from sklearn.cluster import KMeans
+        from sklearn.neural_network import MLPClassifier
+        from sklearn.preprocessing import StandardScaler
+
+        c = self.config
+        k = len(c.classes)
+        x = np.vstack([f for f, _ in sequences])
+        y = np.concatenate([lab for _, lab in sequences])
+        missing = sorted(set(range(k)) - set(y.tolist()))
+        if missing:
+            raise ValueError("no training windows of %s" % [c.classes[i] for i in missing])
+        self.scaler = StandardScaler().fit(x)
+        z = self.scaler.transform(x)
+        self.class_prior = np.bincount(y, minlength=k) / float(y.size)
+        self.nn = MLPClassifier(hidden_layer_sizes=c.hidden, max_iter=2000,
+                                random_state=c.seed, early_stopping=False).fit(z, y)
+        self.kmeans = KMeans(n_clusters=c.n_symbols, n_init=4, random_state=c.seed).fit(z)
+        start = np.ones(k)
+        trans = np.ones((k, k))
+        emit = np.ones((k, c.n_symbols))
+        for f, lab in sequences:
+            s = self.kmeans.predict(self.scaler.transform(f))
+            start[lab[0]] += 1
+            np.add.at(trans, (lab[:-1], lab[1:]), 1)
+            np.add.at(emit, (lab, s), 1)
+        self.hmm = CategoricalHMM(n_components=k, init_params="", params="")
+        self.hmm.startprob_ = start / start.sum()
+        self.hmm.transmat_ = trans / trans.sum(axis=1, keepdims=True)
+        self.hmm.emissionprob_ = emit / emit.sum(axis=1, keepdims=True)
+        self.hmm.n_features = c.n_symbols
+        # unknown detection: per-class Gaussian, distance threshold from its own windows
+        self.means, self.precisions, self.thresholds = [], [], []
+        for a in range(k):
+            za = z[y == a]
+            mean = za.mean(axis=0)
+            cov = np.cov(za, rowvar=False) + c.unknown_ridge * np.eye(z.shape[1])
+            precision = np.linalg.inv(cov)
+            d = self._mahalanobis(za, mean, precision)
+            self.means.append(mean)
+            self.precisions.append(precision)
+            self.thresholds.append(float(np.quantile(d, c.unknown_quantile)))
+        return self
+
+    @staticmethod
+    def _mahalanobis(z, mean, precision):
+        d = z - mean
+        return np.sqrt(np.einsum("ni,ij,nj->n", d, precision, d))
+
+    # -- recognition ------------------------------------------------------------------
+    def known(self, features: np.ndarray) -> np.ndarray:
+        """(n,) bool: the window is near at least one class."""
+        z = self.scaler.transform(features)
+        near = [self._mahalanobis(z, m, p) <= t
+                for m, p, t in zip(self.means, self.precisions, self.thresholds)]
+        return np.any(near, axis=0)
+
+    def posteriors(self, features: np.ndarray, prior: Optional[np.ndarray] = None,
+                   kind: Optional[str] = None) -> np.ndarray:
+        """(n, classes) P(A_t | ...) for a sequence of windows of one person (``kind``
+        overrides the configured recognizer; ``prior``: an activity prior P_t(A))."""
+        kind = kind or self.config.kind
+        z = self.scaler.transform(features)
+        known = self.known(features)
+        p_nn = self.nn.predict_proba(z)
+        if kind == "nn":
+            post = p_nn
+        elif kind == "hmm":
+            s = self.kmeans.predict(z)
+            log_lik = np.log(self.hmm.emissionprob_[:, s].T)
+            log_lik[~known] = 0.0
+            post = _forward(log_lik, self.hmm.startprob_, self.hmm.transmat_)
+        else:
+            log_lik = np.log(np.maximum(p_nn, 1e-9) / self.class_prior)
+            log_lik[~known] = 0.0
+            post = _forward(log_lik, self.hmm.startprob_, self.hmm.transmat_)
+        if prior is not None:
+            post = post * (np.asarray(prior) / self.class_prior)
+            post = post / post.sum(axis=1, keepdims=True)
+        return post
+
+    def recognize(self, features: np.ndarray, prior: Optional[np.ndarray] = None,
+                  kind: Optional[str] = None) -> Tuple[List[str], np.ndarray]:
+        """(label per window, its probability); ``unknown`` (probability of the best
+        class kept) where the window is near no class."""
+        post = self.posteriors(features, prior, kind)
+        best = np.argmax(post, axis=1)
+        known = self.known(features)
+        labels = [self.config.classes[b] if k else UNKNOWN for b, k in zip(best, known)]
+        return labels, post[np.arange(len(best)), best]
+
+
+def confusion(true: Sequence[str], predicted: Sequence[str],
+              classes: Sequence[str]) -> Tuple[np.ndarray, List[str]]:
+    """Counts [predicted, true] over ``classes`` (+ ``unknown`` as a last predicted row
+    and any true label outside ``classes`` as extra columns)."""
+    extra = sorted(set(true) - set(classes))
+    cols = list(classes) + extra
+    rows = list(classes) + [UNKNOWN]
+    out = np.zeros((len(rows), len(cols)), dtype=np.int64)
+    for t, p in zip(true, predicted):
+        out[rows.index(p), cols.index(t)] += 1
+    return out, cols
+
+
+def observation_model(counts: np.ndarray, n: int) -> Dict[str, np.ndarray]:
+    """P(O|A) in Table 5.1's layout from a confusion of the first ``n`` classes: rows O
+    (the ``n`` classes, then "other" = another class or unknown), columns A."""
+    c = counts[:, :n].astype(float)
+    table = np.vstack([c[:n], c[n:].sum(axis=0, keepdims=True)])
+    total = table.sum(axis=0, keepdims=True)
+    return {"table": table / np.maximum(total, 1.0), "windows": total.ravel()}

@@ -1,0 +1,123 @@
+"""Activity recognition: window features against their definition, window labels, a
+recognizer trained on a few emulated persons and tested on another, unknown activities,
+the activity prior, the confusion and P(O|A) layouts, the training command."""
+import re
+
+import numpy as np
+import pytest
+
+from semantic_mapping import training
+from semantic_mapping.activity import (
+    ACTIVITIES,
+    UNKNOWN,
+    Recognizer,
+    RecognizerConfig,
+    confusion,
+    observation_model,
+    window_features,
+    window_labels,
+)
+from semantic_mapping.body_signals import Person, render
+
+
+def test_features_are_means_and_variances_of_each_window():
+    rng = np.random.default_rng(0)
+    waist, thigh = rng.normal(size=(200, 3)), rng.normal(5.0, 2.0, size=(200, 3))
+    cfg = RecognizerConfig(window_s=2.0, hop_s=0.5, rate_hz=20.0, features="extended")
+    feats, ends = window_features(waist, thigh, cfg)
+    assert ends.tolist() == list(range(40, 201, 10)) and feats.shape == (17, 18)
+    for i, e in enumerate(ends):
+        row = []
+        for a in (waist, thigh):
+            win = a[e - 40:e]
+            diff = np.diff(a, axis=0, prepend=a[:1])[e - 40:e]
+            diff[0] = 0.0 if e == 40 else diff[0]
+            row += [win.mean(0), win.var(0), diff.var(0)]
+        assert feats[i] == pytest.approx(np.concatenate(row), abs=1e-9)
+    thesis, _ = window_features(waist, thigh, RecognizerConfig(window_s=2.0, hop_s=0.5))
+    assert thesis.shape == (17, 12) and thesis == pytest.approx(feats[:, [0, 1, 2, 3, 4, 5,
+                                                                         9, 10, 11, 12, 13,
+                                                                         14]])
+
+
+def test_window_labels_centre_and_purity():
+    labels = ["sitting"] * 50 + ["walking"] * 50
+    cfg = RecognizerConfig(window_s=1.0, hop_s=0.5)  # 20 samples every 10
+    centre, pure = window_labels(labels, np.arange(20, 101, 10), cfg)
+    # windows [0, 20), [10, 30) ... [80, 100); the label changes at sample 50
+    assert list(centre) == ["sitting"] * 5 + ["walking"] * 4
+    assert pure.tolist() == [True, True, True, True, False, True, True, True, True]
+
+
+@pytest.fixture(scope="module")
+def trained():
+    cfg = RecognizerConfig(window_s=3.0, features="extended", kind="nn_hmm", hidden=(32,))
+    return training.train([0, 1, 2, 3], cfg), cfg
+
+
+def test_a_held_out_person_is_recognized(trained):
+    rec, cfg = trained
+    true, pred = training.evaluate(rec, [training.record(100, cfg)], "nn_hmm")
+    acc = dict(training.accuracies(true, pred, ACTIVITIES))
+    assert {"lying", "sitting", "walking"} <= set(acc)
+    assert acc["lying"] > 0.9 and acc["walking"] > 0.9 and acc["sitting"] > 0.8
+
+
+def test_unknown_activities_are_not_forced_into_a_class(trained):
+    rec, cfg = trained
+    p = Person.from_seed(101)
+    for activity in ("bending", "scratching"):
+        data = render([(activity, 20.0)], p)
+        feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+        labels, _ = rec.recognize(feats)
+        assert np.mean([lab == UNKNOWN for lab in labels]) > 0.9, activity
+    data = render([("walking", 20.0)], p)
+    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+    assert rec.known(feats).mean() > 0.95
+
+
+def test_the_room_prior_shifts_the_posterior(trained):
+    rec, cfg = trained
+    data = render([("sitting", 10.0)], Person.from_seed(102))
+    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+    flat = rec.posteriors(feats, kind="nn")
+    prior = rec.class_prior.copy()
+    prior[ACTIVITIES.index("typing")] *= 50.0
+    prior /= prior.sum()
+    shifted = rec.posteriors(feats, prior=prior, kind="nn")
+    t = ACTIVITIES.index("typing")
+    assert np.all(shifted[:, t] >= flat[:, t]) and np.allclose(shifted.sum(1), 1.0)
+    same = rec.posteriors(feats, prior=rec.class_prior, kind="nn")
+    assert same == pytest.approx(flat)
+
+
+def test_confusion_and_table_5_1_layout():
+    classes = ("a", "b", "c")
+    counts, cols = confusion(["a", "a", "b", "b", "c", "x"], ["a", "b", "b", UNKNOWN, "c",
+                                                              UNKNOWN], classes)
+    assert cols == ["a", "b", "c", "x"]
+    assert counts.tolist() == [[1, 0, 0, 0], [1, 1, 0, 0], [0, 0, 1, 0], [0, 1, 0, 1]]
+    om = observation_model(counts, 2)
+    assert om["table"].tolist() == [[0.5, 0.0], [0.5, 0.5], [0.0, 0.5]]  # rows a, b, other
+    assert om["windows"].tolist() == [2, 2]
+
+
+def test_train_activity_command(capsys, tmp_path):
+    out = tmp_path / "rec.joblib"
+    table = tmp_path / "table.yaml"
+    code = training.main(["--train-seeds", "0-2", "--test-seeds", "100", "--windows", "3",
+                          "--features", "extended", "--kind", "nn", "--out", str(out),
+                          "--table", str(table)])
+    lines = capsys.readouterr().out.splitlines()
+    assert code == 0 and out.is_file() and table.is_file()
+    assert re.match(r"^accuracy: lying=\d\.\d{3} typing=\d\.\d{3} eating=\d\.\d{3} "
+                    r"sitting=\d\.\d{3} opening_door=\d\.\d{3}$", lines[-1])
+    import joblib
+    import yaml
+    rec = joblib.load(out)
+    assert isinstance(rec, Recognizer) and rec.config.kind == "nn"
+    doc = yaml.safe_load(table.read_text())
+    assert np.allclose(np.sum(doc["observation_model"], axis=0), 1.0, atol=1e-3)
+    assert doc["rows"][-1] == "other"
+    with pytest.raises(SystemExit):
+        training.main(["--train-seeds", "0-2", "--test-seeds", "2"])
