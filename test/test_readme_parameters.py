@@ -27,6 +27,7 @@ from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
+from semantic_mapping.activity import RecognizerNodeParams
 from semantic_mapping.emulator import EmulatorParams
 from semantic_mapping.location import LocationParams
 from semantic_mapping.wearable import ReceiverParams
@@ -57,7 +58,7 @@ TABLES = {
     "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams,
                                              GestureNodeParams, GestureControlNodeParams],
     "ascc_ros_pkg/semantic_mapping/README.md": [LocationParams, ReceiverParams,
-                                                 EmulatorParams],
+                                                 EmulatorParams, RecognizerNodeParams],
 }
 
 

@@ -10,6 +10,7 @@ from semantic_mapping import training
 from semantic_mapping.activity import (
     ACTIVITIES,
     UNKNOWN,
+    OnlineRecognizer,
     Recognizer,
     RecognizerConfig,
     confusion,
@@ -30,9 +31,7 @@ def test_features_are_means_and_variances_of_each_window():
         row = []
         for a in (waist, thigh):
             win = a[e - 40:e]
-            diff = np.diff(a, axis=0, prepend=a[:1])[e - 40:e]
-            diff[0] = 0.0 if e == 40 else diff[0]
-            row += [win.mean(0), win.var(0), diff.var(0)]
+            row += [win.mean(0), win.var(0), np.diff(win, axis=0).var(0)]
         assert feats[i] == pytest.approx(np.concatenate(row), abs=1e-9)
     thesis, _ = window_features(waist, thigh, RecognizerConfig(window_s=2.0, hop_s=0.5))
     assert thesis.shape == (17, 12) and thesis == pytest.approx(feats[:, [0, 1, 2, 3, 4, 5,
@@ -74,6 +73,20 @@ def test_unknown_activities_are_not_forced_into_a_class(trained):
     data = render([("walking", 20.0)], p)
     feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
     assert rec.known(feats).mean() > 0.95
+
+
+def test_online_recognition_equals_the_batch(trained):
+    rec, cfg = trained
+    data = render([("walking", 8.0), ("sitting", 12.0), ("bending", 6.0)],
+                  Person.from_seed(103))
+    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+    labels, probs = rec.recognize(feats)
+    online = OnlineRecognizer(rec)
+    got = [r for r in (online.push(w, t) for w, t in zip(data["waist_accel"],
+                                                      data["thigh_accel"])) if r]
+    assert [g[0] for g in got] == labels
+    assert [g[1] for g in got] == pytest.approx(probs)
+    assert UNKNOWN in labels and "walking" in labels
 
 
 def test_the_room_prior_shifts_the_posterior(trained):

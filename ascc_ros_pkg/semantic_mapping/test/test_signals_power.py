@@ -8,7 +8,7 @@ import pytest
 from semantic_mapping import duty_cycle
 from semantic_mapping.body_signals import RATE_HZ, G, Person, render, sensor_signals
 from semantic_mapping.emulator import Emulator
-from semantic_mapping.power import PowerManager, PowerParams, awake_mask, wake_ups
+from semantic_mapping.power import PowerManager, PowerParams, awake_mask, hold_asleep, wake_ups
 from semantic_mapping.wearable import ReceiverCore, ReceiverWarning, SampleOut
 
 T = np.arange(0.0, 20.0, 1.0 / RATE_HZ)
@@ -87,6 +87,18 @@ def test_power_rule_batch_equals_sample_by_sample_and_sleeps_when_still():
     still = PowerManager(RATE_HZ, params)
     states = [still.step([9.8, 0.0, 0.0])[0] for _ in range(int(12 * RATE_HZ))]
     assert states[int(9.9 * RATE_HZ)] and not states[int(10.1 * RATE_HZ)]
+
+
+def test_hold_asleep_repeats_the_last_sample_sent():
+    a = np.tile([9.8, 0.0, 0.0], (400, 1))
+    a[:5, 0] += np.arange(5)  # a little motion, then still: asleep after 10 s
+    a[300:, 1] = 3.0          # a jump at 15 s wakes it
+    awake = awake_mask(a, RATE_HZ, PowerParams())
+    held = hold_asleep(a, RATE_HZ, PowerParams())
+    assert np.array_equal(held[awake], a[awake])
+    asleep = np.flatnonzero(~awake)
+    assert asleep.size > 0 and np.all(held[asleep] == a[asleep[0] - 1])
+    assert awake[300]
 
 
 def test_duty_cycle_tool(capsys):

@@ -23,6 +23,9 @@ belief (its likelihood is flat). A shrunk covariance (Ledoit-Wolf) was tried fir
 shrinkage towards the mean variance let a class with one large variance feature (eating's
 bends) swallow postures far from it on the others (bending, 0 % unknown).
 
+Sensors asleep (the power scheme of 5.4.1) send nothing: the node holds a sleeping
+sensor's last sample, and the training recordings are made the same way (`training`).
+
 The activity prior fed back from the room belief (`fusion.activity_prior`) enters as
 P(A | x, R) ∝ P(A | x) P_t(A) / P_train(A) (`Recognizer.posteriors(..., prior=)`).
 """
@@ -34,10 +37,29 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ascc_common.params import param
+
 ACTIVITIES = ("lying", "typing", "eating", "sitting", "opening_door",    # 5.5
               "sit_to_stand", "stand_to_sit", "standing", "walking")    # fig. 5.15
 UNKNOWN = "unknown"
 KINDS = ("nn", "hmm", "nn_hmm")
+
+
+@dataclass
+class RecognizerNodeParams:
+    """The activity_recognizer node's private parameters."""
+
+    model_path: str = param("", "the recognizer saved by train_activity --out (required)")
+    model_wait_s: float = param(0.0, "[s] wait this long for the model file to appear "
+                                "(0: it must exist at start)", ge=0.0)
+    waist_sensor: str = param("waist", "name of the waist sensor: wearable/<name>/imu")
+    thigh_sensor: str = param("thigh", "name of the thigh sensor: wearable/<name>/imu")
+    warn_period_s: float = param(10.0, "[s] each kind of warning at most once per this",
+                                 gt=0.0)
+
+    def validate(self) -> None:
+        if not self.model_path:
+            raise ValueError("model_path: required (make one with train_activity --out)")
 
 
 @dataclass
@@ -80,8 +102,8 @@ def window_features(waist: np.ndarray, thigh: np.ndarray,
     mean, var = _window_moments(a, ends, w)
     parts = [[mean[:, :3], var[:, :3]], [mean[:, 3:], var[:, 3:]]]
     if config.features == "extended":
-        d = np.vstack([np.zeros((1, 6)), np.diff(a, axis=0)])
-        _, dvar = _window_moments(d, ends, w)
+        d = np.vstack([np.zeros((1, 6)), np.diff(a, axis=0)])  # d[i] = a[i] - a[i-1]
+        _, dvar = _window_moments(d, ends, max(w - 1, 1))  # the w - 1 inside the window
         parts[0].append(dvar[:, :3])
         parts[1].append(dvar[:, 3:])
     return np.hstack(parts[0] + parts[1]), ends
@@ -98,15 +120,21 @@ def window_labels(labels: Sequence[str], ends: np.ndarray,
     return centre, pure
 
 
+def forward_step(belief: Optional[np.ndarray], log_lik: np.ndarray, start: np.ndarray,
+                 trans: np.ndarray) -> np.ndarray:
+    """One step of the HMM forward recursion: P(A_t | obs_1..t) from P(A_t-1 | obs_1..t-1)
+    (None before the first window: the start distribution) and log P(obs_t | A_t)."""
+    pred = start if belief is None else belief @ trans
+    post = pred * np.exp(log_lik - log_lik.max())
+    return post / post.sum()
+
+
 def _forward(log_lik: np.ndarray, start: np.ndarray, trans: np.ndarray) -> np.ndarray:
     """Filtered posteriors P(A_t | obs_1..t) of an HMM with per-step log-likelihoods."""
     out = np.empty_like(log_lik)
-    belief = start
+    belief = None
     for t in range(log_lik.shape[0]):  # one step per window (a few per second)
-        pred = belief if t == 0 else belief @ trans
-        post = pred * np.exp(log_lik[t] - log_lik[t].max())
-        belief = post / post.sum()
-        out[t] = belief
+        belief = out[t] = forward_step(belief, log_lik[t], start, trans)
     return out
 
 
@@ -178,29 +206,37 @@ class Recognizer:
                 for m, p, t in zip(self.means, self.precisions, self.thresholds)]
         return np.any(near, axis=0)
 
+    def evidence(self, features: np.ndarray, kind: Optional[str] = None):
+        """Per window: (P_nn(A | x) for ``nn``, else log P(obs | A) for the HMM forward
+        recursion, flat where the window is unknown; and the known mask)."""
+        kind = kind or self.config.kind
+        z = self.scaler.transform(features)
+        known = self.known(features)
+        if kind == "hmm":
+            log_lik = np.log(self.hmm.emissionprob_[:, self.kmeans.predict(z)].T)
+        else:
+            p_nn = self.nn.predict_proba(z)
+            if kind == "nn":
+                return p_nn, known
+            log_lik = np.log(np.maximum(p_nn, 1e-9) / self.class_prior)
+        log_lik[~known] = 0.0
+        return log_lik, known
+
+    def apply_prior(self, post: np.ndarray, prior: Optional[np.ndarray]) -> np.ndarray:
+        """P(A | x, R) ∝ P(A | x) P_t(A) / P_train(A) (rows of ``post``)."""
+        if prior is None:
+            return post
+        post = post * (np.asarray(prior) / self.class_prior)
+        return post / post.sum(axis=-1, keepdims=True)
+
     def posteriors(self, features: np.ndarray, prior: Optional[np.ndarray] = None,
                    kind: Optional[str] = None) -> np.ndarray:
         """(n, classes) P(A_t | ...) for a sequence of windows of one person (``kind``
         overrides the configured recognizer; ``prior``: an activity prior P_t(A))."""
         kind = kind or self.config.kind
-        z = self.scaler.transform(features)
-        known = self.known(features)
-        p_nn = self.nn.predict_proba(z)
-        if kind == "nn":
-            post = p_nn
-        elif kind == "hmm":
-            s = self.kmeans.predict(z)
-            log_lik = np.log(self.hmm.emissionprob_[:, s].T)
-            log_lik[~known] = 0.0
-            post = _forward(log_lik, self.hmm.startprob_, self.hmm.transmat_)
-        else:
-            log_lik = np.log(np.maximum(p_nn, 1e-9) / self.class_prior)
-            log_lik[~known] = 0.0
-            post = _forward(log_lik, self.hmm.startprob_, self.hmm.transmat_)
-        if prior is not None:
-            post = post * (np.asarray(prior) / self.class_prior)
-            post = post / post.sum(axis=1, keepdims=True)
-        return post
+        ev, _ = self.evidence(features, kind)
+        post = ev if kind == "nn" else _forward(ev, self.hmm.startprob_, self.hmm.transmat_)
+        return self.apply_prior(post, prior)
 
     def recognize(self, features: np.ndarray, prior: Optional[np.ndarray] = None,
                   kind: Optional[str] = None) -> Tuple[List[str], np.ndarray]:
@@ -233,3 +269,36 @@ def observation_model(counts: np.ndarray, n: int) -> Dict[str, np.ndarray]:
     table = np.vstack([c[:n], c[n:].sum(axis=0, keepdims=True)])
     total = table.sum(axis=0, keepdims=True)
     return {"table": table / np.maximum(total, 1.0), "windows": total.ravel()}
+
+
+class OnlineRecognizer:
+    """The recognizer fed sample by sample (the node): ``push(waist, thigh)`` at the
+    sensors' rate [m/s^2, (3,) each; a sleeping sensor's last sample held]; every
+    ``hop_s`` a window is complete and ``push`` returns (label, probability, posterior),
+    else None. Same features and filter as `Recognizer.recognize` on a recording."""
+
+    def __init__(self, recognizer: Recognizer):
+        self.rec = recognizer
+        self.w, self.hop = recognizer.config.samples()
+        self.buf = np.zeros((self.w, 6))
+        self.n = 0          # samples pushed
+        self.belief: Optional[np.ndarray] = None
+
+    def push(self, waist, thigh, prior: Optional[np.ndarray] = None):
+        self.buf = np.roll(self.buf, -1, axis=0)
+        self.buf[-1, :3], self.buf[-1, 3:] = waist, thigh
+        self.n += 1
+        if self.n < self.w or (self.n - self.w) % self.hop:
+            return None
+        feats, _ = window_features(self.buf[:, :3], self.buf[:, 3:], self.rec.config)
+        kind = self.rec.config.kind
+        ev, known = self.rec.evidence(feats[-1:], kind)
+        if kind == "nn":
+            post = ev[0]
+        else:
+            post = self.belief = forward_step(self.belief, ev[0], self.rec.hmm.startprob_,
+                                              self.rec.hmm.transmat_)
+        post = self.rec.apply_prior(post, prior)
+        best = int(np.argmax(post))
+        label = self.rec.config.classes[best] if known[0] else UNKNOWN
+        return label, float(post[best]), post

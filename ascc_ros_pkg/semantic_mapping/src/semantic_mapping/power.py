@@ -64,6 +64,15 @@ def awake_mask(accel: np.ndarray, rate_hz: float, params: PowerParams) -> np.nda
     return (c[i + 1] - c[np.maximum(i + 1 - hold, 0)]) > 0
 
 
+def hold_asleep(accel: np.ndarray, rate_hz: float, params: PowerParams) -> np.ndarray:
+    """What a receiver that holds each sensor's last sample sees: ``accel`` (n, 3) with
+    every sample of a sleeping node replaced by the last one it sent."""
+    a = np.asarray(accel, dtype=float)
+    awake = awake_mask(a, rate_hz, params)
+    last = np.maximum.accumulate(np.where(awake, np.arange(a.shape[0]), 0))
+    return a[last]
+
+
 def duty_cycle(awake: np.ndarray) -> float:
     return float(np.mean(awake)) if len(awake) else 0.0
 

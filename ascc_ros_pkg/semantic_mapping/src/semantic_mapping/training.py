@@ -6,8 +6,10 @@ measures it on persons never used in training (thesis 5.4.2).
 Recordings: each person (a seed) follows a script of their own (`person_script`: the
 activities of 5.5 and fig. 5.15 in sessions, random order and durations from the seed)
 rendered by the emulator's signal model (`body_signals.render`, the same code the
-`wearable_emulator` node runs, sample for sample). Held-out persons' scripts add
-activities the recognizer never saw (scratching, bending, carrying).
+`wearable_emulator` node runs, sample for sample), with the power scheme on: while a
+sensor sleeps its last sample is held, as `activity_recognizer` holds it (``--power
+off``: the sensors always on, for comparison). Held-out
+persons' scripts add activities the recognizer never saw (scratching, bending, carrying).
 
 Prints, on the held-out persons' windows lying wholly inside one activity, the accuracy
 per activity of each recognizer kind, the confusion matrix of ``--kind``, the observation
@@ -36,6 +38,7 @@ from .activity import (
     window_labels,
 )
 from .body_signals import UNKNOWN_ACTIVITIES, Person, render
+from .power import PowerParams, hold_asleep
 
 FIVE = ACTIVITIES[:5]  # the activities of 5.5, in the thesis's order
 
@@ -62,24 +65,29 @@ def person_script(seed: int, sessions: int = 6,
 _RENDERED: Dict[Tuple[int, bool, float], dict] = {}
 
 
-def record(seed: int, config: RecognizerConfig, unknown: bool = False):
-    """(features, centre labels, pure mask) of one person's rendered recording (the
-    rendering is kept for the next call with another window or feature set)."""
+def record(seed: int, config: RecognizerConfig, unknown: bool = False,
+           power: bool = True):
+    """(features, centre labels, pure mask) of one person's rendered recording, the power
+    scheme on or off (the rendering is kept for the next call with another window or
+    feature set)."""
     key = (seed, unknown, config.rate_hz)
     if key not in _RENDERED:
         _RENDERED[key] = render(person_script(seed, unknown=unknown), Person.from_seed(seed),
                                 config.rate_hz)
     data = _RENDERED[key]
-    feats, ends = window_features(data["waist_accel"], data["thigh_accel"], config)
+    waist, thigh = data["waist_accel"], data["thigh_accel"]
+    if power:  # a sleeping sensor's last sample held, as activity_recognizer holds it
+        waist, thigh = (hold_asleep(a, config.rate_hz, PowerParams()) for a in (waist, thigh))
+    feats, ends = window_features(waist, thigh, config)
     labels, pure = window_labels(data["label"], ends, config)
     return feats, labels, pure
 
 
-def train(seeds: Sequence[int], config: RecognizerConfig) -> Recognizer:
+def train(seeds: Sequence[int], config: RecognizerConfig, power: bool = True) -> Recognizer:
     idx = {a: i for i, a in enumerate(config.classes)}
     sequences = []
     for seed in seeds:
-        feats, labels, _ = record(seed, config)
+        feats, labels, _ = record(seed, config, power=power)
         sequences.append((feats, np.array([idx[a] for a in labels])))
     return Recognizer(config).fit(sequences)
 
@@ -103,7 +111,7 @@ def accuracies(true: Sequence[str], pred: Sequence[str],
 
 
 def select(seeds: Sequence[int], windows: Sequence[float], features: Sequence[str],
-           folds: int = 3) -> Tuple[str, float, str, List[str]]:
+           folds: int = 3, power: bool = True) -> Tuple[str, float, str, List[str]]:
     """Model selection on the training persons only, by ``folds``-fold cross-validation
     over persons (each fold's persons validate a recognizer trained on the others; the
     validation windows of all folds are pooled). The (features, window, kind) whose worst
@@ -118,8 +126,8 @@ def select(seeds: Sequence[int], windows: Sequence[float], features: Sequence[st
             config = RecognizerConfig(window_s=w, features=feat)
             pooled = {kind: ([], []) for kind in KINDS}
             for g in groups:
-                rec = train([s for s in seeds if s not in g], config)
-                val = [record(int(seed), config) for seed in g]
+                rec = train([s for s in seeds if s not in g], config, power)
+                val = [record(int(seed), config, power=power) for seed in g]
                 for kind in KINDS:
                     t, p = evaluate(rec, val, kind)
                     pooled[kind][0].extend(t)
@@ -161,6 +169,8 @@ def main(argv: Optional[List[str]] = None) -> int:
                          "persons)")
     ap.add_argument("--features", choices=("thesis", "extended"),
                     help="window features (default: chosen on the training persons)")
+    ap.add_argument("--power", choices=("on", "off"), default="on",
+                    help="the sensors' sleep/wake scheme (on: as the emulator node runs)")
     ap.add_argument("--windows", default="3,4.5,6",
                     help="window lengths [s] to choose from (3,4.5,6)")
     ap.add_argument("--out", help="save the trained recognizer here (joblib)")
@@ -174,16 +184,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     if set(train_seeds) & set(test):
         ap.error("a person is in both --train-seeds and --test-seeds")
     features = [args.features] if args.features else ["thesis", "extended"]
-    feat, window, kind, lines = select(train_seeds, windows, features)
+    power = args.power == "on"
+    feat, window, kind, lines = select(train_seeds, windows, features, power=power)
     print("\n".join(lines))
     kind = args.kind or kind
     config = RecognizerConfig(window_s=window, kind=kind, features=feat)
-    rec = train(train_seeds, config)
-    held = [record(seed, config, unknown=True) for seed in test]
-    print("activity recognition (thesis 5.4.2): %s features, window %g s every %g s, %s; "
-          "trained on persons %s, tested on held-out persons %s (windows wholly inside one "
-          "activity)" % (feat, config.window_s, config.hop_s, kind, args.train_seeds,
-                         args.test_seeds))
+    rec = train(train_seeds, config, power)
+    held = [record(seed, config, unknown=True, power=power) for seed in test]
+    print("activity recognition (thesis 5.4.2): %s features, window %g s every %g s, %s, "
+          "power scheme %s; trained on persons %s, tested on held-out persons %s (windows "
+          "wholly inside one activity)" % (feat, config.window_s, config.hop_s, kind,
+                                           args.power, args.train_seeds, args.test_seeds))
     results = {}
     for k in KINDS:
         results[k] = evaluate(rec, held, k)

@@ -1,0 +1,93 @@
+"""Node `activity_recognizer`: the recognized activity of the person wearing the motion
+sensors (thesis 5.4.2). Subscribes ``wearable/<waist>/imu`` and ``wearable/<thigh>/imu``,
+keeps the newest acceleration of each (a sensor asleep under the power scheme sends
+nothing: its last sample is held, as in training), feeds both at the model's sample rate
+to `semantic_mapping.activity.OnlineRecognizer`, and publishes one
+``semantic_mapping/Activity`` per window on ``activity``. The model is the file written by
+``train_activity --out``. Parameters: `semantic_mapping.activity.RecognizerNodeParams`.
+"""
+import os
+import threading
+import time
+
+import joblib
+import numpy as np
+import rospy
+from sensor_msgs.msg import Imu
+
+from ascc_common.params import from_params
+from semantic_mapping.activity import OnlineRecognizer, Recognizer, RecognizerNodeParams
+from semantic_mapping.msg import Activity
+from semantic_mapping.ros import run
+
+
+def load_model(path, wait_s):
+    """The Recognizer in ``path``, waiting up to ``wait_s`` for the file; ValueError
+    naming the file otherwise."""
+    deadline = time.monotonic() + wait_s
+    while not os.path.isfile(path):
+        if time.monotonic() >= deadline or rospy.is_shutdown():
+            raise ValueError("model_path: no file %s (make one with train_activity --out)"
+                             % path)
+        rospy.loginfo_throttle(10.0, "activity recognizer: waiting for %s" % path)
+        time.sleep(0.2)
+    rec = joblib.load(path)
+    if not isinstance(rec, Recognizer):
+        raise ValueError("model_path: %s holds a %s, not a semantic_mapping Recognizer"
+                         % (path, type(rec).__name__))
+    return rec
+
+
+class ActivityRecognizerNode:
+    def __init__(self):
+        p = from_params(RecognizerNodeParams, rospy.get_param, "~")
+        self.p = p
+        self.rec = load_model(p.model_path, p.model_wait_s)
+        self.online = OnlineRecognizer(self.rec)
+        self.lock = threading.Lock()
+        self.latest = {}  # sensor name -> (3,) acceleration [m/s^2]
+        self.pub = rospy.Publisher("activity", Activity, queue_size=10)
+        for name in (p.waist_sensor, p.thigh_sensor):
+            rospy.Subscriber("wearable/%s/imu" % name, Imu, self.on_imu, callback_args=name,
+                             queue_size=50)
+        cfg = self.rec.config
+        rospy.Timer(rospy.Duration(1.0 / cfg.rate_hz), self.on_tick)
+        rospy.loginfo("activity recognizer: %s (%s, %s features, %g s windows every %g s)",
+                      p.model_path, cfg.kind, cfg.features, cfg.window_s, cfg.hop_s)
+
+    def on_imu(self, msg, name):
+        """Store the newest acceleration (the work is on the timer)."""
+        a = msg.linear_acceleration
+        value = np.array([a.x, a.y, a.z])
+        if not np.all(np.isfinite(value)):
+            rospy.logwarn_throttle(self.p.warn_period_s, "activity recognizer: non-finite "
+                                   "acceleration from wearable/%s/imu ignored" % name)
+            return
+        with self.lock:
+            self.latest[name] = value
+
+    def on_tick(self, _event):
+        with self.lock:
+            waist = self.latest.get(self.p.waist_sensor)
+            thigh = self.latest.get(self.p.thigh_sensor)
+        if waist is None or thigh is None:
+            missing = [n for n, v in ((self.p.waist_sensor, waist),
+                                      (self.p.thigh_sensor, thigh)) if v is None]
+            rospy.logwarn_throttle(self.p.warn_period_s, "activity recognizer: waiting for "
+                                   "%s" % ", ".join("wearable/%s/imu" % n for n in missing))
+            return
+        out = self.online.push(waist, thigh)
+        if out is None:
+            return
+        label, probability, posterior = out
+        msg = Activity()
+        msg.header.stamp = rospy.Time.now()
+        msg.activity = label
+        msg.probability = probability
+        msg.classes = list(self.rec.config.classes)
+        msg.posterior = [float(v) for v in posterior]
+        self.pub.publish(msg)
+
+
+def main():
+    run("activity_recognizer", ActivityRecognizerNode, "activity recognizer")
