@@ -21,8 +21,8 @@ from ascc_navigation.mcl import MclNodeParams
 from ascc_navigation.navigation import MoveBaseParams
 from ascc_sim.camera_render import SimCameraParams
 from ascc_sim.runner import SimulatorParams
-from colloc_fusion.node_params import EstimatorParams, FusionParams
 from asccbot_bringup.description import DescriptionParams
+from colloc_fusion.node_params import EstimatorParams, FusionParams
 from frontier_detector.explorer import ExplorerNodeParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
