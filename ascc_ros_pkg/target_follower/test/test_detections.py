@@ -108,3 +108,13 @@ def test_no_range_above_the_horizon():
     blob.bbox = (blob.bbox[0], 10, blob.bbox[2], 20)  # bottom edge above the horizon
     loc = locate(CAM, blob, SHAPES["cone"])
     assert loc.range_source == RANGE_NONE and math.isnan(loc.range_m)
+
+
+def test_nan_beams_raise_no_runtime_warning():
+    import warnings
+
+    scan = scan_with_circle((1.0, 0.3), 0.1)
+    scan.ranges[::3] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert scan.points_in_base().shape[1] == 2

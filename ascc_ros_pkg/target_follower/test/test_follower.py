@@ -310,3 +310,16 @@ def test_rep117_ranges():
     r[ahead] = 0.01  # a finite value below range_min is invalid, not an obstacle
     assert not s.check(r, RANGE_MIN, RANGE_MAX)[0]
     assert s.check(r[:-1], RANGE_MIN, RANGE_MAX)[0]  # wrong layout: blocked, not a crash
+
+
+def test_nan_ranges_raise_no_runtime_warning():
+    """NaN beams are invalid, silently: numpy < 1.19 (Ubuntu 20.04's 1.17) warns on NaN
+    comparisons, which would reach the robot's logs every scan (run under Python 3.8 with
+    requirements-focal.txt by make test)."""
+    import warnings
+
+    r = scan_with()
+    r[::4] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sector().check(r, RANGE_MIN, RANGE_MAX)

@@ -68,7 +68,8 @@ class Scan:
         range_max])."""
         r = np.asarray(self.ranges, dtype=np.float64)
         a = self.angle_min + self.angle_increment * np.arange(r.size)
-        ok = np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
+        with np.errstate(invalid="ignore"):  # NaN compares False (numpy < 1.19 warns)
+            ok = np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
         x, y, yaw = self.pose
         r, a = r[ok], a[ok] + yaw
         return np.stack([x + r * np.cos(a), y + r * np.sin(a)], axis=1)

@@ -283,7 +283,8 @@ class SafetySector:
         if too_close.any():
             return True, "%d beam(s) ahead report an object closer than range_min (-inf)" \
                 % int(too_close.sum())
-        valid = hit | np.isposinf(r) | (np.isfinite(r) & (r > range_max))
+        with np.errstate(invalid="ignore"):
+            valid = hit | np.isposinf(r) | (np.isfinite(r) & (r > range_max))
         n_sector = int(self.in_sector.sum())
         if n_sector == 0 or valid[self.in_sector].mean() < self.min_valid:
             return True, "safety sector blind: %d of %d beams valid" % (
