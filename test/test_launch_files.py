@@ -21,7 +21,8 @@ OFFICE = os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", "office.yaml")
 # Values for arguments without a default (the files' docs say what they are).
 REQUIRED = {"world": OFFICE, "url": "http://127.0.0.1:9/faststream.jpg", "ns": "robotA",
             "link_dir": "/tmp/ascc_launch_check", "robots": "/", "port": "/tmp/pty_create",
-            "frame_prefix": "robotA/", "cmd_timeout_s": "0.5"}
+            "frame_prefix": "robotA/", "cmd_timeout_s": "0.5", "robot": "robotA",
+            "x": "1.0", "y": "1.0", "a": "0.0"}
 # Documented argument sets beyond the defaults (the header comments' examples); every set
 # is checked with the stand-ins (use_stand_in(s):=true where the file has that argument).
 VARIANTS = {
