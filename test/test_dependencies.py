@@ -22,6 +22,8 @@ PKGS = ROOT / "ascc_ros_pkg"
 PYTHON_KEYS = {"numpy": "python3-numpy", "cv2": "python3-opencv", "yaml": "python3-yaml",
                "matplotlib": "python3-matplotlib", "serial": "python3-serial",
                "rosbags": "python3-rosbags-pip", "rospkg": "python3-rospkg",
+               "scipy": "python3-scipy", "sklearn": "python3-sklearn",
+               "hmmlearn": "python3-hmmlearn-pip", "joblib": "python3-joblib",
                # a ROS package that Debian ships without its package.xml
                "diagnostic_updater": "diagnostic_updater"}
 STDLIB = os.path.realpath(sysconfig.get_paths()["stdlib"])

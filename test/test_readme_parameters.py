@@ -132,8 +132,8 @@ def test_readme_defaults_match_the_dataclass(cls, header, rows):
         for name, text in zip(names, values):
             checked.add(name)
             value = _value(text)
-            if name is not None and isinstance(known[name], list):  # `0.1 0.2 0.3`
-                value = [_value(v) for v in text.strip("`").split()]
+            if name is not None and isinstance(known[name], list):  # `0.1 0.2 0.3`, [1 2], []
+                value = [_value(v) for v in text.strip().strip("`").strip("[]").split()]
             if name is None or value is None or known[name] is None:
                 continue  # unknown name, a formula, or unset by default (said in words)
             default = known[name]
