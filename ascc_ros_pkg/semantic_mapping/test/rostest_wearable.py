@@ -37,7 +37,7 @@ class WearableLinkTest(unittest.TestCase):
         rospy.Subscriber("wearable/waist/imu", Imu,
                          lambda _m: cls.last_waist.__setitem__(0, time.monotonic()))
 
-    def test_emulated_sensors_walk_sit_sleep_and_wake(self):
+    def test_1_emulated_sensors_walk_sit_sleep_and_wake(self):
         self.waist.wait(30.0, count=20)
         self.assertEqual(self.waist.msg.header.frame_id, "wearable_waist")
         self.assertEqual(self.truth.all[0].data, "walking")
@@ -62,7 +62,7 @@ class WearableLinkTest(unittest.TestCase):
         self.waist.wait(45.0, count=asleep_at + 20)
         self.assertEqual(self.rosout.matching(node="/wearable_receiver", level="warn"), [])
 
-    def test_bad_input_is_warned_and_the_good_stream_goes_on(self):
+    def test_2_bad_input_is_warned_and_the_good_stream_goes_on(self):
         path = rospy.get_param("~bad_link")
         master, slave = os.openpty()
         tty.setraw(slave)
@@ -72,29 +72,43 @@ class WearableLinkTest(unittest.TestCase):
         self.addCleanup(os.close, slave)
         self.rosout.wait_for_connection()
         node = "/bad/bad_receiver"
-        wait_for(lambda: self.rosout.matching(node=node, contains=("open",)), 20.0,
-                 "the receiver opening the pty")
 
         def good(seq):
             s = Sample(seq, (9.75, 0.0, 0.5), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
             return encode_rx16(1, encode_sample(s))
+
+        # the receiver reads the pty once a frame written to it comes out (its "open" log
+        # line may be published before this test's /rosout subscription is connected)
+        probe = [0, 0.0]  # frames written, wall time of the last one
+
+        def through():
+            if time.monotonic() - probe[1] >= 0.1:
+                os.write(master, good(probe[0]))
+                probe[0] += 1
+                probe[1] = time.monotonic()
+            return self.bad_waist.count > 0
+
+        wait_for(through, 20.0, "the receiver reading the pty")
+        time.sleep(0.5)  # probe frames still on their way
+        base = self.bad_waist.count
 
         bad_checksum = bytearray(good(1000))
         bad_checksum[-1] ^= 0xFF
         extras = {5: b"\x00\x13\x11garbage", 10: encode_rx16(7, encode_sample(Sample(
             0, (0.0,) * 3, (0.0,) * 3, (0.0, 0.0, 0.0, 1.0)))), 15: bytes(bad_checksum)}
         sent = 0
-        for seq in range(60):
-            os.write(master, extras.get(seq, b"") + good(seq))
+        first = probe[0]  # sequence numbers go on after the probes
+        for i in range(60):
+            os.write(master, extras.get(i, b"") + good(first + i))
             sent += 1
             time.sleep(0.05)
-        os.write(master, good(60)[:12])   # truncated: then nothing for 1 s
+        os.write(master, good(first + 60)[:12])   # truncated: then nothing for 1 s
         time.sleep(1.0)
-        for seq in range(61, 81):
-            os.write(master, good(seq))
+        for i in range(61, 81):
+            os.write(master, good(first + i))
             sent += 1
             time.sleep(0.05)
-        self.bad_waist.wait(15.0, count=sent)
+        self.bad_waist.wait(15.0, count=base + sent)
         wait_for(lambda: self.rosout.matching(node=node, contains=("thigh", "silent")),
                  10.0, "the silent-thigh warning")
         time.sleep(0.5)  # later duplicates of any warning would show up here
@@ -102,9 +116,9 @@ class WearableLinkTest(unittest.TestCase):
                        "cut short", "sensor thigh (0x0002) is silent"):
             got = self.rosout.matching(node=node, level="warn", contains=(needle,))
             self.assertEqual(len(got), 1, "%r warned %d times" % (needle, len(got)))
-        self.assertEqual(self.bad_waist.count, sent)
-        self.assertEqual([round(m.linear_acceleration.x, 2) for m in self.bad_waist.all[:2]],
-                         [9.75, 9.75])
+        self.assertEqual(self.bad_waist.count, base + sent)
+        self.assertEqual([round(m.linear_acceleration.x, 2)
+                          for m in self.bad_waist.all[base:base + 2]], [9.75, 9.75])
 
 
 if __name__ == "__main__":

@@ -170,6 +170,18 @@ def test_a_target_that_walks_back_restarts_the_trail():
     aim = tr.aim(pose, target, direct_aim(pose, target), 1.3)
     assert aim.range_m == pytest.approx(1.25) and not tr.steering
     assert tr.points == [target]
+    # also when it stops just outside the set distance (1.35 m: the band's edge)
+    tr = Trail(TrailParams(trail_max_detour_m=1.0))
+    for q in walked([(3.0, 0.0), (1.4, 0.0)]):
+        tr.add(q)
+    aim = tr.aim(pose, (1.35, 0.0), direct_aim(pose, (1.35, 0.0)), 1.3)
+    assert not tr.steering and tr.points == [(1.35, 0.0)]
+    # a person 1.5 m past a right-angle corner, the robot 1.5 m before it: kept
+    tr = Trail(TrailParams(trail_max_detour_m=1.0))
+    for q in walked([(0.3, 0.0), (1.5, 0.0), (1.5, 1.5)]):
+        tr.add(q)
+    tr.aim(pose, (1.5, 1.5), direct_aim(pose, (1.5, 1.5)), 1.3)
+    assert tr.steering and len(tr.points) > 20
     # round a corner the detour is small: the trail is kept
     tr = Trail(TrailParams(trail_max_detour_m=1.0))
     for q in walked([(0.3, 0.0), (0.9, 0.0), (0.9, 0.6)]):
@@ -178,3 +190,15 @@ def test_a_target_that_walks_back_restarts_the_trail():
     n = len(tr.points)
     tr.aim(pose, target, direct_aim(pose, target), 1.3)
     assert len(tr.points) >= n - 3
+
+
+def test_a_target_nearer_than_its_trail_start_restarts_it():
+    """It walked back 0.35 m past the start of its (restarted) trail: the trail is behind
+    it, the robot faces it (follower.test: 1.6 m -> 1.25 m, the trail 0.7 m longer)."""
+    tr = Trail(TrailParams())
+    pose = (0.0, 0.0, 0.0)
+    for q in walked([(1.6, 0.0), (1.3, 0.0)]):
+        tr.add(q)
+    aim = tr.aim(pose, (1.25, 0.0), direct_aim(pose, (1.25, 0.0)), 1.3)
+    assert not tr.steering and aim.range_m == pytest.approx(1.25)
+    assert tr.points == [(1.25, 0.0)]

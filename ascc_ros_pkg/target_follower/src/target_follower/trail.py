@@ -22,8 +22,9 @@ Right after a person turns a corner the straight line is shorter than the path (
 against 1.2 m half-way through a right-angle turn): with ``direct_within_m`` at the set
 distance (1.3 m) the robot waited at each corner and fell ~1 m behind (straight-segment
 error 0.61 m over 5 seeds); at 0.9 m (the default) the path decides the speed round the
-corner. A target that walks back toward the robot (nearer than the set distance in a
-straight line, the trail ``trail_max_detour_m`` longer) restarts the trail at itself. That
+corner. A target that walks back toward the robot (nearer than where its trail starts, or
+within the set distance plus ``trail_max_detour_m`` in a straight line with the trail that
+much longer) restarts the trail at itself. That
 needed a trail without bad points (``trail_max_innovation_m``), a way out
 when a trail point is out of reach (``note_blocked``) and a safety stop along the arc
 being driven (follower.py): docs/results/target_follower.md. When the
@@ -69,11 +70,12 @@ class TrailParams:
                                                 "the track's prediction is not a trail "
                                                 "point (a laser range off the target)",
                                           gt=0.0)
-    trail_max_detour_m: float = param(1.0, "[m] the target nearer than the set distance "
-                                           "in a straight line while the path along the "
-                                           "trail is this much longer: it came back (the "
-                                           "trail is restarted at it, the robot faces it)",
-                                      gt=0.0)
+    trail_max_detour_m: float = param(1.0, "[m] the target within the set distance plus "
+                                           "this in a straight line while the path along "
+                                           "the trail is this much longer: it came back "
+                                           "(the trail is restarted at it, the robot faces "
+                                           "it; a right-angle corner makes at most 0.41 x "
+                                           "the straight range)", gt=0.0)
     trail_blocked_s: float = param(2.0, "[s] held by the safety stop this long while "
                                         "steering along the trail: the trail is dropped "
                                         "(its next point is out of reach)", gt=0.0)
@@ -140,9 +142,18 @@ class Trail:
         if last >= 0:
             del self.points[:last + 1]
 
+    def _to_target(self, target_xy: Point) -> List[Point]:
+        """The trail without its last points within ``trail_reached_m`` of the target
+        (where the target is now: a point just beyond it would count twice)."""
+        pts = self.points
+        while pts and math.hypot(pts[-1][0] - target_xy[0],
+                                 pts[-1][1] - target_xy[1]) < self.p.trail_reached_m:
+            pts = pts[:-1]
+        return pts
+
     def steer_point(self, robot_xy: Point, target_xy: Point) -> Point:
         """The first trail point at least the lookahead away; the target when none is."""
-        for x, y in self.points:
+        for x, y in self._to_target(target_xy):
             if math.hypot(x - robot_xy[0], y - robot_xy[1]) >= self.p.trail_lookahead_m:
                 return x, y
         return target_xy
@@ -150,7 +161,7 @@ class Trail:
     def path_length(self, robot_xy: Point, target_xy: Point) -> float:
         """Length [m] of robot -> remaining trail points -> target."""
         length, prev = 0.0, robot_xy
-        for pt in self.points + [target_xy]:
+        for pt in self._to_target(target_xy) + [target_xy]:
             length += math.hypot(pt[0] - prev[0], pt[1] - prev[1])
             prev = pt
         return length
@@ -190,7 +201,12 @@ class Trail:
         robot = (pose[0], pose[1])
         self.prune(robot)
         rng = self.path_length(robot, target_xy)
-        if direct.range_m <= distance_m and rng > direct.range_m + self.p.trail_max_detour_m:
+        detour = self.p.trail_max_detour_m
+        first = math.hypot(self.points[0][0] - robot[0], self.points[0][1] - robot[1]) \
+            if self.points else math.inf
+        nearer = direct.range_m < first - self.p.trail_spacing_m  # than where its trail starts
+        if (direct.range_m <= distance_m + detour and rng > direct.range_m + detour) \
+                or nearer:
             self.clear()  # the target walked back toward the robot: the trail is a detour
             self.add(target_xy)
             return direct
