@@ -31,8 +31,8 @@ from std_srvs.srv import SetBool, SetBoolResponse
 
 from ascc_common.params import from_params
 from ascc_common.pose2d import yaw_of
-from ascc_navigation.laser import LaserMount
 from ascc_navigation.mapper import ScanInput, check_scan
+from ascc_navigation.ros.laser_tf import mount_from_tf
 from target_follower.follower import (
     ACTIVE_STATES,
     DISABLED,
@@ -242,10 +242,8 @@ class TargetFollowerNode:
         key = (msg.header.frame_id, len(msg.ranges), msg.angle_min, msg.angle_increment)
         if key not in self.sectors:
             try:
-                t = self.tf_buffer.lookup_transform(self.p.base_frame, msg.header.frame_id,
-                                                    rospy.Time(0), rospy.Duration(0.05))
-                tr, q = t.transform.translation, t.transform.rotation
-                mount = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z, q.w)
+                mount = mount_from_tf(self.tf_buffer, self.p.base_frame,
+                                      msg.header.frame_id)
             except (tf2_ros.TransformException, ValueError) as e:
                 rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: scan frame '%s' "
                                        "unusable: %s" % (msg.header.frame_id, e))
