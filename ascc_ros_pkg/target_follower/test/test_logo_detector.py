@@ -84,3 +84,41 @@ def test_bad_template(tmp_path):
     empty.write_bytes(b"")
     with pytest.raises(ValueError, match="empty.png"):
         load_template(str(empty))
+
+
+def double_panorama_with_logo(bearing, range_m, seed):
+    """A 1024 x 768 double panorama with the logo at ``bearing``, drawn on one 360 deg strip
+    (whole across a seam) then cut into the two strips: that strip's column c is the
+    double panorama's unwrapped column c - 512 (+90 deg at column 0)."""
+    cam360 = PanoramicCamera(width_px=2 * CAM.width_px, height_px=CAM.strip_height_px,
+                             layout="panorama", mount_z_m=CAM.mount_z_m)
+    rng = np.random.default_rng(seed)
+    img = S.background(cam360, rng, clutter=10)
+    S.draw_logo(img, cam360, bearing, range_m, TEMPLATE)
+    img = S.photometric(img, rng, gain=1.1)
+    unwrapped = np.roll(img, -CAM.width_px // 2, axis=1)
+    return np.vstack([unwrapped[:, :CAM.width_px], unwrapped[:, CAM.width_px:]])
+
+
+@pytest.mark.parametrize("bearing_deg", [-90.0, 90.0, 0.0, 150.0])
+def test_a_logo_on_a_strip_seam_is_found_whole(bearing_deg):
+    """At +-90 deg the poster is half at the end of one strip, half at the start of the
+    other: found at the right bearing once the strips are joined, and not without."""
+    joined = LogoDetector(TEMPLATE, LogoParams(), CAM.strip_height_px)
+    apart = LogoDetector(TEMPLATE, LogoParams())
+    found_apart = 0
+    for k, range_m in enumerate([1.2, 1.7]):  # the default template levels' range
+        img = double_panorama_with_logo(math.radians(bearing_deg), range_m, 70 + k)
+        (b,) = joined.detect(img)
+        u, v = b.u, b.v
+        bearing, _ = CAM.pixel_to_ray(u, v)
+        err = math.degrees(math.remainder(float(bearing) - math.radians(bearing_deg),
+                                          2 * math.pi))
+        assert abs(err) < 2.0, (range_m, b.to_json())
+        x, y, w, h = b.bbox
+        assert 0 <= x and x + w <= CAM.width_px and w > 0
+        strip = int(v // CAM.strip_height_px)
+        assert strip * CAM.strip_height_px <= y and y + h <= (strip + 1) * CAM.strip_height_px
+        found_apart += len(apart.detect(img))
+    if abs(bearing_deg) == 90.0:
+        assert found_apart == 0  # each half alone is not a plausible logo

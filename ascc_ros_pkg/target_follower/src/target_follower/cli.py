@@ -55,7 +55,7 @@ def make_detector(kind: str, template: Optional[str] = None, config: Optional[st
         return ColorDetector(kind, params, strip_height_px)
     tree = load_config(config) if config else {}
     return LogoDetector(load_template(template or DEFAULT_TEMPLATE),
-                        from_params(LogoParams, tree_getter(tree)))
+                        from_params(LogoParams, tree_getter(tree)), strip_height_px)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -86,9 +86,9 @@ def main(argv: Optional[List[str]] = None) -> int:
             print("detect_targets: error: cannot read image %s" % path, file=sys.stderr)
             status = 2
             continue
+        detector.strip_height_px = (img.shape[0] // 2 if args.strip_height_px < 0
+                                    else args.strip_height_px)
         if isinstance(detector, ColorDetector):
-            detector.strip_height_px = (img.shape[0] // 2 if args.strip_height_px < 0
-                                        else args.strip_height_px)
             blobs = detector.detect(img)
         else:
             blobs = detector.detect(img, args.blur_px)

@@ -28,12 +28,21 @@ frame's ``processing_scale``): blurred features then match blurred features. Blu
 are rounded to ``blur_step_px`` and each set is computed once and cached (the template is
 small: a set costs a few milliseconds).
 
+**Seams.** The double panorama's two 180-degree strips are joined into one 360-degree
+strip before ORB sees the frame (as the colour detector does), and its first
+``seam_overlap_px`` columns are repeated after its end: a poster at -90 or +90 deg,
+half at the end of one strip and half at the start of the other, is matched whole. The
+joined image has 2 x width + ``seam_overlap_px`` columns of one strip's height (12 % more
+pixels than the frame at the defaults).
+
 Result: at most one ``Blob`` (kind "logo"), with the quadrilateral's centroid, bounding
-box, area and ``quad`` (4 x 2 corners, full-resolution pixels); score = inliers / (inliers
-+ ``score_inliers``).
+box (the part in its strip), area and ``quad`` (4 x 2 corners, full-resolution frame
+pixels; on a seam the corners beyond it keep continuous columns, < 0 or >= width);
+score = inliers / (inliers + ``score_inliers``).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
 
@@ -79,6 +88,9 @@ class LogoParams:
                                        "projected outline", ge=1.0)
     score_inliers: float = param(20.0, "[1] inlier count of score 0.5 (score = n / (n + "
                                        "score_inliers))", gt=0.0)
+    seam_overlap_px: int = param(256, "[px, full resolution] columns of the 360-degree "
+                                      "strip's start repeated after its end, so that a "
+                                      "logo up to this wide on that seam is whole", ge=0)
 
 
 def load_template(path: str) -> np.ndarray:
@@ -112,10 +124,16 @@ class LogoDetector:
     """Finds the template in BGR frames; ``detect(frame, blur_px)``. Not thread-safe (the
     template cache): one instance per worker thread."""
 
-    def __init__(self, template_bgr: np.ndarray, params: LogoParams):
+    def __init__(self, template_bgr: np.ndarray, params: LogoParams, strip_height_px: int = 0,
+                 wrap: bool = False):
+        """``strip_height_px``: the double panorama's strip height (its two strips are
+        joined into one 360-degree strip before matching; 0: the frame is one strip);
+        ``wrap``: a single strip covers 360 degrees (its ends join)."""
         if template_bgr is None or template_bgr.size == 0:
             raise ValueError("empty logo template")
         self.p = params
+        self.strip_height_px = strip_height_px
+        self.wrap = wrap
         self.template = _grey(template_bgr)
         th, tw = self.template.shape[:2]
         self.template_aspect = tw / float(th)  # width / height
@@ -174,7 +192,7 @@ class LogoDetector:
             raise ValueError("expected a uint8 image, got %s"
                              % (None if bgr is None else "%s %s" % (bgr.shape, bgr.dtype)))
         p = self.p
-        grey = _grey(bgr)
+        grey, strip_w, cut, period = self._strip(_grey(bgr))
         if p.processing_scale < 1.0:
             grey = cv2.resize(grey, None, fx=p.processing_scale, fy=p.processing_scale,
                               interpolation=cv2.INTER_AREA)
@@ -190,8 +208,43 @@ class LogoDetector:
         if best is None:
             return []
         inliers, quad, _ = best
-        quad = self._full(quad)
-        return [self._blob(quad, inliers)]
+        return [self._blob(self._to_frame(self._full(quad), strip_w, cut, period), inliers,
+                           strip_w)]
+
+    def _strip(self, grey: np.ndarray) -> Tuple[np.ndarray, int, int, int]:
+        """The image ORB sees: a double panorama's two strips side by side (the front
+        strip's right end, -90 deg, runs into the rear strip's left end), and for a
+        360-degree strip its first ``seam_overlap_px`` columns again after its end (+90
+        deg for the double panorama), so a logo on a seam is whole. Also returns one
+        strip's width, the rear strip's first row (0: one strip) and the 360-degree
+        period in columns (0: the frame does not wrap)."""
+        h, w = grey.shape[:2]
+        cut, period = 0, 0
+        if 0 < self.strip_height_px < h:
+            cut = self.strip_height_px
+            rows = min(cut, h - cut)
+            grey = np.hstack([grey[:rows], grey[cut:cut + rows]])
+            period = 2 * w
+        elif self.wrap:
+            period = w
+        if period:
+            grey = np.hstack([grey, grey[:, :min(self.p.seam_overlap_px, period)]])
+        return np.ascontiguousarray(grey), w, cut, period
+
+    @staticmethod
+    def _to_frame(quad: np.ndarray, strip_w: int, cut: int, period: int) -> np.ndarray:
+        """A quadrilateral found in ``_strip``'s image -> frame pixels: its centre is
+        brought into the first turn and, past the front strip's width, into the rear
+        strip. Corners beyond the seam keep their continuous columns (< 0 or >= width)."""
+        quad = quad.copy()
+        c = float(quad[:, 0].mean())
+        if period:
+            quad[:, 0] -= math.floor(c / period) * period
+            c = float(quad[:, 0].mean())
+        if cut and c >= strip_w:
+            quad[:, 0] -= strip_w
+            quad[:, 1] += cut
+        return quad
 
     def _fit(self, ts: _TemplateSet, frame_pts: np.ndarray, desc: np.ndarray):
         p = self.p
@@ -243,12 +296,15 @@ class LogoDetector:
         change = aspect / self.template_aspect
         return 1.0 / p.max_aspect_change <= change <= p.max_aspect_change
 
-    def _blob(self, quad: np.ndarray, inliers: int) -> Blob:
+    def _blob(self, quad: np.ndarray, inliers: int, strip_w: int) -> Blob:
+        """The detection; its box is the part of the quadrilateral in its strip."""
         m = cv2.moments(quad.astype(np.float32))
         area = float(m["m00"])
         u, v = (m["m10"] / area, m["m01"] / area) if area > 0 else quad.mean(axis=0)
+        u = float(np.clip(u, 0.0, strip_w - 1e-6))
         x0, y0 = np.floor(quad.min(axis=0))
         x1, y1 = np.ceil(quad.max(axis=0))
+        x0, x1 = max(x0, 0.0), min(x1, float(strip_w))
         return Blob("logo", float(u), float(v),
                     (int(x0), int(y0), int(x1 - x0), int(y1 - y0)), area,
                     inliers / (inliers + self.p.score_inliers), quad=quad.astype(float))

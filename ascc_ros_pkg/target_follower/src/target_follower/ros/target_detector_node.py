@@ -96,9 +96,8 @@ class TargetDetectorNode:
             if kind in COLOR_KINDS:
                 tree = load_config(os.path.join(pkg, "config", "%s.yaml" % kind))
                 cp = from_params(ColorParams, layered_getter("~%s/" % kind, tree))
-                full_turn = self.cam.strips * self.cam.strip_span_rad >= 2.0 * math.pi - 1e-6
                 self.detectors[kind] = ColorDetector(kind, cp, self.cam.strip_height_px,
-                                                     wrap=full_turn)
+                                                     wrap=self._full_turn())
         self.logo_params = from_params(LogoParams, rospy.get_param, "~logo/")
         self.template_path = p.template or os.path.join(pkg, "templates", "ascc_logo.png")
         self.shapes = {"cone": TargetShape(True, SHAPES["cone"].height_m, p.target_radius_m),
@@ -148,11 +147,16 @@ class TargetDetectorNode:
             if item is not None:
                 self.process(*item)
 
+    def _full_turn(self) -> bool:
+        """Does the camera's panorama cover 360 degrees (its ends join)?"""
+        return self.cam.strips * self.cam.strip_span_rad >= 2.0 * math.pi - 1e-6
+
     def _logo_detector(self):
         det = self.detectors.get("logo")
         if det is None:
             try:
-                det = LogoDetector(load_template(self.template_path), self.logo_params)
+                det = LogoDetector(load_template(self.template_path), self.logo_params,
+                                   self.cam.strip_height_px, wrap=self._full_turn())
             except ValueError as exc:
                 rospy.logwarn_throttle(WARN_PERIOD_S, "target_detector: no logo detection: "
                                        "%s" % exc)
