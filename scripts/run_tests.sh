@@ -6,7 +6,8 @@
 # line "N passed, N failed" over all of them; exits non-zero on any failure.
 #   --lint-only     only ruff, vermin (Python 3.8 compatibility) and catkin_lint
 #   --no-rostest    skip the rostest part
-# The pure tests also run under Python 3.8 (scripts/test_py38.sh pins, focal).
+# The pure tests also run under Python 3.8 (scripts/test_py38.sh pins, focal), beside the
+# main pytest.
 #   ROSTEST_FILTER=regex   run only the .test files whose path matches (none: a failure)
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -45,6 +46,19 @@ if [ "$lint_only" -eq 1 ]; then
   printf '\n%s\n%d passed, %d failed\n' "${summary[0]}" "$passed" "$failed"; [ "$failed" -eq 0 ]; exit $?
 fi
 
+# The robots run Python 3.8: the pure tests again under 3.8, with requirements.txt's 3.8
+# pins and with Ubuntu 20.04's library versions (scripts/test_py38.sh). Both profiles run
+# one after the other beside the main pytest (two processes on the two cores); their
+# output is shown when the main pytest has finished.
+py38_dir="$(mktemp -d)"
+(
+  for profile in pins focal; do
+    bash scripts/test_py38.sh "$profile" > "$py38_dir/$profile.out" 2>&1
+    echo $? > "$py38_dir/$profile.rc"
+  done
+) &
+py38_pid=$!
+
 step "pytest (pure code, no ROS master)"
 pytest_out="$(mktemp)"
 test_dirs=(ascc_ros_pkg); [ -d test ] && test_dirs+=(test)
@@ -63,16 +77,14 @@ fi
 passed=$((passed + py_pass)); failed=$((failed + py_fail))
 summary+=("pytest $py_pass passed, $py_fail failed")
 
-# The robots run Python 3.8: the pure tests again under 3.8, with requirements.txt's 3.8
-# pins and with Ubuntu 20.04's library versions (scripts/test_py38.sh).
+wait "$py38_pid"
 for profile in pins focal; do
   step "pytest under Python 3.8 ($profile)"
-  py38_out="$(mktemp)"
-  bash scripts/test_py38.sh "$profile" 2>&1 | tee "$py38_out"
-  rc=${PIPESTATUS[0]}
+  py38_out="$py38_dir/$profile.out"
+  cat "$py38_out"
+  rc="$(cat "$py38_dir/$profile.rc" 2>/dev/null || echo 1)"
   p38_pass=$(tail -1 "$py38_out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
   p38_fail=$(tail -1 "$py38_out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
-  rm -f "$py38_out"
   if [ "$rc" -eq 3 ]; then
     summary+=("pytest-3.8 $profile SKIPPED (no Python 3.8 interpreter)")
     continue
@@ -83,6 +95,7 @@ for profile in pins focal; do
   passed=$((passed + p38_pass)); failed=$((failed + p38_fail))
   summary+=("pytest-3.8 $profile $p38_pass passed, $p38_fail failed")
 done
+rm -rf "$py38_dir"
 
 if [ "$no_rostest" -eq 0 ]; then
   # Each .test runs with its own master; its verdict is read from rostest's JUnit XML
