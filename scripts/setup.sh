@@ -20,7 +20,7 @@ APT_PACKAGES=(
   libsensor-msgs-dev libvisualization-msgs-dev libmove-base-msgs-dev libstd-msgs-dev
   libstd-srvs-dev libtf2-msgs-dev python3-venv python3-dev
   ros-robot-state-publisher libdiagnostic-aggregator-dev libdiagnostic-aggregator-tools
-  liburdfdom-tools rviz
+  liburdfdom-tools rviz python3-pyqt5
 )
 
 log() { printf '[setup] %s\n' "$*"; }

@@ -2,5 +2,5 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["telepresence", "telepresence.ros"],
+setup(**generate_distutils_setup(packages=["telepresence", "telepresence.gui", "telepresence.ros"],
                                  package_dir={"": "src"}))
