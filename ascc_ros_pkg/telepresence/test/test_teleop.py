@@ -8,9 +8,23 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import GridInfo
-from telepresence.teleop import (BACKWARD, FORWARD, LEFT, RIGHT, DriveLease, EmergencyStop,
-                                 FrameStats, MapView, PathTrail, check_master, decode_jpeg,
-                                 goal_pose, grid_image, master_uri, namespace)
+from telepresence.teleop import (
+    BACKWARD,
+    FORWARD,
+    LEFT,
+    RIGHT,
+    DriveLease,
+    EmergencyStop,
+    FrameStats,
+    MapView,
+    PathTrail,
+    check_master,
+    decode_jpeg,
+    goal_pose,
+    grid_image,
+    master_uri,
+    namespace,
+)
 
 
 def lease():

@@ -9,13 +9,33 @@ import cv2
 import numpy as np
 from PyQt5.QtCore import QPointF, QRectF, Qt, pyqtSignal
 from PyQt5.QtGui import QColor, QFont, QImage, QPainter, QPen, QPolygonF
-from PyQt5.QtWidgets import (QDialog, QDialogButtonBox, QFormLayout, QGridLayout,
-                             QHBoxLayout, QLabel, QLineEdit, QPushButton, QSlider,
-                             QVBoxLayout, QWidget)
+from PyQt5.QtWidgets import (
+    QDialog,
+    QDialogButtonBox,
+    QFormLayout,
+    QGridLayout,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QSlider,
+    QVBoxLayout,
+    QWidget,
+)
 
 from ascc_common.grid import GridInfo
-from telepresence.teleop import (BACKWARD, FORWARD, LEFT, RIGHT, FrameStats, MapView,
-                                 PathTrail, grid_image, master_uri, namespace)
+from telepresence.teleop import (
+    BACKWARD,
+    FORWARD,
+    LEFT,
+    RIGHT,
+    FrameStats,
+    MapView,
+    PathTrail,
+    grid_image,
+    master_uri,
+    namespace,
+)
 
 
 def _qimage_grey(img: np.ndarray) -> QImage:

@@ -14,8 +14,16 @@ from PyQt5.QtCore import QEvent, Qt, QTimer
 from PyQt5.QtWidgets import QHBoxLayout, QMainWindow, QSplitter, QVBoxLayout, QWidget
 
 from telepresence.gui.widgets import DrivePanel, MapWidget, StatusPanel, VideoWidget
-from telepresence.teleop import (BACKWARD, FORWARD, LEFT, RIGHT, DriveLease, EmergencyStop,
-                                 OperatorGuiParams, goal_pose)
+from telepresence.teleop import (
+    BACKWARD,
+    FORWARD,
+    LEFT,
+    RIGHT,
+    DriveLease,
+    EmergencyStop,
+    OperatorGuiParams,
+    goal_pose,
+)
 
 KEYS = {Qt.Key_Up: FORWARD, Qt.Key_W: FORWARD, Qt.Key_Down: BACKWARD, Qt.Key_S: BACKWARD,
         Qt.Key_Left: LEFT, Qt.Key_A: LEFT, Qt.Key_Right: RIGHT, Qt.Key_D: RIGHT}
@@ -146,9 +154,8 @@ class OperatorWindow(QMainWindow):
             self.status.show("goal", "not sent: emergency stop engaged", True)
             return
         goal = goal_pose(x, y, self.map.robot)
-        self.adapter.send_goal(*goal)
         self.map.set_goal(goal)
-        self.status.show("goal", "sent (%.2f, %.2f)" % (x, y))
+        self.adapter.send_goal(*goal)
 
     def on_cancel_goal(self):
         self.adapter.cancel_goal()

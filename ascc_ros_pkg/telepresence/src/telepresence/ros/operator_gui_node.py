@@ -98,20 +98,26 @@ class RosAdapter(QObject):
         self.io = []
         self.goal_client = None
         self.estop_state = None
-        self.make_io()
+        self.counts = {"map": 0, "image": 0}  # messages received (tests, diagnosis)
         self.tf_timer = QTimer(self)
         self.tf_timer.timeout.connect(self.poll)
+
+    def start(self):
+        """Subscribe and publish: after the window has connected its slots (a latched
+        message, the map, arrives at once and is sent only once)."""
+        self.make_io()
         self.tf_timer.start(100)
 
     # -- connections ------------------------------------------------------------------
     def make_io(self):
         import actionlib
         from geometry_msgs.msg import Twist
-        from irobot_create_2_1.msg import Hazards
         from move_base_msgs.msg import MoveBaseAction
         from nav_msgs.msg import Odometry
         from sensor_msgs.msg import BatteryState, CompressedImage
         from std_msgs.msg import Bool, String
+
+        from irobot_create_2_1.msg import Hazards
         rospy = self.rospy
         for thing in self.io:
             thing.unregister()
@@ -168,6 +174,7 @@ class RosAdapter(QObject):
 
     # -- callbacks (rospy threads) ----------------------------------------------------
     def on_image(self, msg):
+        self.counts["image"] += 1
         bgr = decode_jpeg(bytes(msg.data))
         if bgr is None:
             self.rospy.logwarn_throttle(5.0, "operator_gui: a camera frame (%d bytes, format "
@@ -178,6 +185,7 @@ class RosAdapter(QObject):
 
     def on_map(self, raw):
         from nav_msgs.msg import OccupancyGrid
+        self.counts["map"] += 1
         msg = OccupancyGrid()
         try:
             msg.deserialize_numpy(raw._buff, numpy)
@@ -186,6 +194,10 @@ class RosAdapter(QObject):
         except Exception as exc:  # noqa: BLE001 - any bad map is named, the GUI keeps on
             self.rospy.logwarn_throttle(5.0, "operator_gui: unusable map: %s" % exc)
             return
+        if self.counts["map"] == 1:
+            rospy_ = self.rospy
+            rospy_.loginfo("operator_gui: first map %d x %d cells of %.3f m", info.width,
+                           info.height, info.resolution)
         self.grid.emit(grid, info)
 
     def on_odom(self, msg):
@@ -238,10 +250,11 @@ class RosAdapter(QObject):
         if not self.goal_client.wait_for_server(self.rospy.Duration(0.2)):
             self.goal_status.emit("no move_base action server: goal not sent", False, True)
             return
+        self.goal_status.emit("sent (%.2f, %.2f)" % (x, y), True, False)  # before: the
+        # callbacks come from actionlib's thread, queued after it
         self.goal_client.send_goal(goal, done_cb=self.on_goal_done,
                                    active_cb=lambda: self.goal_status.emit(
                                        "active (%.2f, %.2f)" % (x, y), True, False))
-        self.goal_status.emit("sent (%.2f, %.2f)" % (x, y), True, False)
 
     def cancel_goal(self):
         self.goal_client.cancel_all_goals()
@@ -251,9 +264,21 @@ class RosAdapter(QObject):
         self.goal_status.emit(text, False, state not in (2, 3, 8))
 
 
-def _params():
+def make_window(uri, title):
+    """After ``rospy.init_node``: the adapter, the shown window and the running master
+    watch (the node's main, and the rostest that drives the window)."""
     import rospy
-    return from_params(OperatorGuiParams, rospy.get_param, "~")
+    params = from_params(OperatorGuiParams, rospy.get_param, "~")
+    adapter = RosAdapter(params)
+    window = OperatorWindow(adapter, params, title)
+    adapter.start()
+    watch = MasterWatch(uri, params.master_check_s, params.master_timeout_s)
+    watch.state.connect(adapter.on_master)
+    watch.start()
+    window.resize(1280, 600)
+    window.show()
+    window.activateWindow()
+    return adapter, window, watch
 
 
 def pick_robot(app, uri, ns, params, dialog):
@@ -311,15 +336,7 @@ def main(argv=None):
     if ns != "/":
         os.environ["ROS_NAMESPACE"] = ns
     rospy.init_node("operator_gui", argv=argv, anonymous=False, disable_signals=True)
-    params = _params()
-    adapter = RosAdapter(params)
-    window = OperatorWindow(adapter, params, "%s %s" % (uri, ns))
-    watch = MasterWatch(uri, params.master_check_s, params.master_timeout_s)
-    watch.state.connect(adapter.on_master)
-    watch.start()
-    window.resize(1280, 600)
-    window.show()
-    window.activateWindow()
+    adapter, window, watch = make_window(uri, "%s %s" % (uri, ns))
     signal.signal(signal.SIGINT, lambda *_: app.quit())
     timer = QTimer()  # Ctrl-C / rosnode kill end the Qt loop (Python sees signals)
     timer.timeout.connect(lambda: app.quit() if rospy.is_shutdown() else None)
