@@ -33,6 +33,11 @@ VARIANTS = {
     "launch/robot/explore.launch": [{"sim": "true"}, {"strategy": "nearest"}],
     "launch/robot/create.launch": [{"navigation": "true", "robot_model": "create_2"}],
     "launch/robot/follow.launch": [{"laser": "false", "kind": "cone"}],
+    "launch/robot/telepresence.launch": [
+        {"camera_url": REQUIRED["url"], "kinect": "false", "robot_model": "create_2"},
+        {"operator_host": "127.0.0.1", "operator_user": "ascc"}],
+    "launch/sim/telepresence.launch": [{"gui": "false", "gestures": "false"},
+                                       {"episodes": "rest,come_close", "gui_args": "--dialog"}],
     "launch/explore_demo.launch": [{"world": "lab", "strategy": "nearest"}],
     "launch/sim/office.launch": [{"rviz": "true"}],
     "ascc_ros_pkg/asccbot_bringup/launch/description.launch": [
