@@ -22,7 +22,7 @@ APP = QApplication.instance() or QApplication([])
 
 class Recorder(QObject):
     frame = pyqtSignal(object, float)
-    grid = pyqtSignal(object, object)
+    grid = pyqtSignal(object, object, object)
     pose = pyqtSignal(float, float, float)
     battery = pyqtSignal(str, bool)
     hazards = pyqtSignal(str, str, bool)
@@ -35,6 +35,7 @@ class Recorder(QObject):
         super().__init__()
         self.cmds, self.estops, self.goals, self.cancels = [], [], [], 0
         self.t = 100.0
+        self.map_side_px = None
 
     def publish_cmd(self, v, w):
         self.cmds.append((v, w))
@@ -146,7 +147,7 @@ def test_emergency_stop_latched_until_rearm(gui):
 def test_map_click_sends_a_goal_in_the_map_frame(gui):
     w, rec = gui
     grid, info = a_map()
-    rec.grid.emit(grid, info)
+    rec.grid.emit(grid, info, None)
     rec.pose.emit(0.0, 0.0, 0.0)
     view = w.map.view
     px, py = view.to_pixel(2.0, 1.0)
@@ -170,7 +171,7 @@ def test_map_click_sends_a_goal_in_the_map_frame(gui):
 def test_screenshot_shows_map_robot_and_video(gui):
     w, rec = gui
     grid, info = a_map()
-    rec.grid.emit(grid, info)
+    rec.grid.emit(grid, info, None)
     for i in range(20):
         rec.pose.emit(-2.0 + 0.1 * i, 0.5, 0.0)
     img = np.zeros((240, 320, 3), dtype=np.uint8)
@@ -227,6 +228,18 @@ def test_map_widget_without_map_and_rerender_on_resize():
     QApplication.processEvents()
     assert m.image.width() == 800 and m.view.px_per_m == pytest.approx(8.0)
     m.close()
+
+
+def test_map_image_made_off_the_ui_thread_is_used_when_it_fits():
+    m = MapWidget()
+    m.resize(400, 400)
+    grid = np.zeros((1000, 2000), dtype=np.int8)
+    info = GridInfo(0.05, 2000, 1000)
+    marked = np.full((200, 400), 7, dtype=np.uint8)  # not what grid_image would make
+    m.set_map(grid, info, marked)
+    assert m.image.width() == 400 and m.image.pixelColor(5, 5).red() == 7
+    m.set_map(grid, info, np.full((50, 100), 7, dtype=np.uint8))  # too small: re-rendered
+    assert m.image.width() == 400 and m.image.pixelColor(5, 5).red() == 254
 
 
 def test_connect_dialog_checks_what_was_typed():

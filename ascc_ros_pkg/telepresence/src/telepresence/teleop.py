@@ -235,13 +235,12 @@ def grid_image(grid: np.ndarray, max_side_px: int) -> Tuple[np.ndarray, float]:
         raise ValueError("map grid must be a non-empty 2D array, got shape %r"
                          % (grid.shape,))
     img = cv2.LUT(np.ascontiguousarray(grid).view(np.uint8), GRID_LUT)
-    img = np.ascontiguousarray(img[::-1])
     h, w = img.shape
     scale = max(1.0, max(h, w) / float(max(1, max_side_px)))
     if scale > 1.0:
         img = cv2.resize(img, (max(1, int(round(w / scale))), max(1, int(round(h / scale)))),
                          interpolation=cv2.INTER_AREA)
-    return img, scale
+    return cv2.flip(img, 0), scale  # flipped after the resize: fewer pixels
 
 
 class MapView:

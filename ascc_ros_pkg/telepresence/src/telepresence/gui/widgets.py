@@ -102,6 +102,7 @@ class MapWidget(QWidget):
     click inside the map emits ``goal_clicked(x, y)`` in the map frame [m]."""
 
     goal_clicked = pyqtSignal(float, float)
+    side_changed = pyqtSignal(int)  # side_px after a resize (the adapter renders for it)
 
     def __init__(self, path_step_m: float = 0.05, path_points: int = 2000, parent=None):
         super().__init__(parent)
@@ -115,24 +116,33 @@ class MapWidget(QWidget):
         self.trail = PathTrail(path_step_m, path_points)
         self.last_render_s = 0.0
 
-    def set_map(self, grid: np.ndarray, info: GridInfo) -> None:
+    def side_px(self) -> int:
+        """The longest side [device px] a map image needs for this widget."""
+        return max(64, int(max(self.width(), self.height()) * self.devicePixelRatioF()))
+
+    def set_map(self, grid: np.ndarray, info: GridInfo, image: np.ndarray = None) -> None:
+        """A new map; ``image``: its ``grid_image`` made off the UI thread (the node's
+        adapter makes it for ``side_px``), used if it still fits the widget."""
         info.check_axis_aligned()
         self.grid, self.info = grid, info
-        self._render()
+        self._render(image)
         self.update()
 
-    def _render(self) -> None:
+    def _render(self, image: np.ndarray = None) -> None:
         if self.grid is None:
             return
         t0 = time.perf_counter()
-        side = int(max(self.width(), self.height()) * self.devicePixelRatioF())
-        img, _ = grid_image(self.grid, max(64, side))
-        self.image = _qimage_grey(img)
+        side = self.side_px()
+        if image is None or not (max(image.shape) >= min(side, max(self.grid.shape))
+                                 and max(image.shape) <= 2 * side):
+            image, _ = grid_image(self.grid, side)
+        self.image = _qimage_grey(image)
         self.view = MapView(self.info, self.width(), self.height())
         self.last_render_s = time.perf_counter() - t0
 
     def resizeEvent(self, event):
         self._render()
+        self.side_changed.emit(self.side_px())
         super().resizeEvent(event)
 
     def set_robot(self, x: float, y: float, yaw: float) -> None:

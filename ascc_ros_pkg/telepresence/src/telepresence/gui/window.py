@@ -2,7 +2,7 @@
 lease and an adapter (the ROS side, or a test's) through Qt signals.
 
 The adapter is a QObject with the signals ``frame(object bgr, float stamp_s)``,
-``grid(object grid, object GridInfo)``, ``pose(float x, float y, float yaw)``,
+``grid(object grid, object GridInfo, object image or None)``, ``pose(float x, float y, float yaw)``,
 ``battery(str, bool fault)``, ``hazards(str bumpers, str wheel_drops, bool fault)``,
 ``mux_active(str)``, ``gesture_state(str)``, ``goal_status(str, bool active, bool
 fault)``, ``link(bool up, str what)`` and the methods ``publish_cmd(v, w)``,
@@ -68,6 +68,8 @@ class OperatorWindow(QMainWindow):
         self.map.goal_clicked.connect(self.on_map_click)
         adapter.frame.connect(self.on_frame)
         adapter.grid.connect(self.map.set_map)
+        self.map.side_changed.connect(self.on_map_side)
+        self.on_map_side(self.map.side_px())
         adapter.pose.connect(self.map.set_robot)
         adapter.battery.connect(lambda t, f: self.status.show("battery", t, f))
         adapter.hazards.connect(self.on_hazards)
@@ -166,6 +168,10 @@ class OperatorWindow(QMainWindow):
         self.status.show("goal", text, fault)
         if not active and not fault:
             self.map.set_goal(None)
+
+    def on_map_side(self, side_px):
+        """The adapter renders map images for this size in its own thread."""
+        self.adapter.map_side_px = side_px
 
     # -- status -----------------------------------------------------------------------
     def on_frame(self, bgr, stamp_s):

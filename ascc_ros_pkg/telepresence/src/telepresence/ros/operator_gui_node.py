@@ -38,7 +38,14 @@ from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from telepresence.gui.widgets import ConnectDialog
 from telepresence.gui.window import OperatorWindow
-from telepresence.teleop import OperatorGuiParams, check_master, decode_jpeg, master_uri, namespace
+from telepresence.teleop import (
+    OperatorGuiParams,
+    check_master,
+    decode_jpeg,
+    grid_image,
+    master_uri,
+    namespace,
+)
 
 GOAL_TEXT = {0: "pending", 1: "active", 2: "preempted (cancelled)", 3: "reached",
              4: "aborted by move_base", 5: "refused by move_base", 6: "cancelling",
@@ -73,7 +80,7 @@ class RosAdapter(QObject):
     through these signals (queued into the UI thread)."""
 
     frame = pyqtSignal(object, float)
-    grid = pyqtSignal(object, object)
+    grid = pyqtSignal(object, object, object)
     pose = pyqtSignal(float, float, float)
     battery = pyqtSignal(str, bool)
     hazards = pyqtSignal(str, str, bool)
@@ -99,6 +106,7 @@ class RosAdapter(QObject):
         self.goal_client = None
         self.estop_state = None
         self.counts = {"map": 0, "image": 0}  # messages received (tests, diagnosis)
+        self.map_side_px = 1024  # the map widget's size (the window sets it)
         self.tf_timer = QTimer(self)
         self.tf_timer.timeout.connect(self.poll)
 
@@ -191,6 +199,7 @@ class RosAdapter(QObject):
             msg.deserialize_numpy(raw._buff, numpy)
             info = GridInfo.from_msg_info(msg.info).check_axis_aligned()
             grid = numpy.asarray(msg.data, dtype=numpy.int8).reshape(info.height, info.width)
+            image, _ = grid_image(grid, self.map_side_px)  # here, not in the UI thread
         except Exception as exc:  # noqa: BLE001 - any bad map is named, the GUI keeps on
             self.rospy.logwarn_throttle(5.0, "operator_gui: unusable map: %s" % exc)
             return
@@ -198,7 +207,7 @@ class RosAdapter(QObject):
             rospy_ = self.rospy
             rospy_.loginfo("operator_gui: first map %d x %d cells of %.3f m", info.width,
                            info.height, info.resolution)
-        self.grid.emit(grid, info)
+        self.grid.emit(grid, info, image)
 
     def on_odom(self, msg):
         self.last_odom = time.monotonic()
