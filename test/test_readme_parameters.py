@@ -40,6 +40,7 @@ from telepresence.mux import VelocityMuxParams
 from telepresence.ros.gesture_control_node import GestureControlNodeParams
 from telepresence.ros.gesture_recognizer_node import GestureNodeParams
 from telepresence.skeleton_sim import SkeletonSimParams
+from telepresence.teleop import OperatorGuiParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -56,7 +57,8 @@ TABLES = {
     "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,
                                                 LogoParams, TargetFollowerParams],
     "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams,
-                                             GestureNodeParams, GestureControlNodeParams],
+                                             GestureNodeParams, GestureControlNodeParams,
+                                             OperatorGuiParams],
     "ascc_ros_pkg/semantic_mapping/README.md": [LocationParams, ReceiverParams,
                                                  EmulatorParams, RecognizerNodeParams],
 }
