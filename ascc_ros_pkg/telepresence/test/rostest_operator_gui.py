@@ -148,8 +148,10 @@ class OperatorGuiTest(unittest.TestCase):
 
     def test_4_map_click_starts_a_goal_and_cancel_ends_it(self):
         w = self.window
-        x, y, _ = pose_of(self.truth.msg)
-        gx, gy = x - 0.8, y  # behind the robot, in the corridor it came along
+        x, y, _ = w.map.robot  # map frame (SLAM's: x along the start heading)
+        gx, gy = x + 0.8, y  # ahead in the corridor (the laser does not see behind)
+        ix, iy = w.map.info.world_to_cell(gx, gy)
+        self.assertTrue(0 <= w.map.grid[iy, ix] <= 50, "the goal is not on free space")
         px, py = w.map.view.to_pixel(gx, gy)
         n = self.status.count
         QTest.mouseClick(w.map, Qt.LeftButton, Qt.NoModifier,
