@@ -95,8 +95,9 @@ class RosAdapter(QObject):
         import tf2_ros
         self.rospy = rospy
         self.p = params
+        self.tf2_ros = tf2_ros
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
-        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.tf_listener = None
         self.last_odom = None  # wall time of the newest odometry
         self.master_ok = True
         self.master_pid = None
@@ -129,6 +130,9 @@ class RosAdapter(QObject):
         rospy = self.rospy
         for thing in self.io:
             thing.unregister()
+        if self.tf_listener is not None:
+            self.tf_listener.unregister()
+        self.tf_listener = self.tf2_ros.TransformListener(self.tf_buffer)
         self.cmd_pub = rospy.Publisher("teleop/cmd_vel", Twist, queue_size=1)
         self.estop_pub = rospy.Publisher("e_stop", Bool, queue_size=1, latch=True)
         if self.estop_state is not None:  # a restarted master: the latched state again
@@ -308,6 +312,9 @@ def pick_robot(app, uri, ns, params, dialog):
             result["ok"] = True
             box.done(0)
         else:
+            if box.text().split("\n")[0] != text:  # also on stderr, once per change
+                print("operator_gui: %s; retrying every %.1f s" % (text, params.master_check_s),
+                      file=sys.stderr, flush=True)
             box.setText("%s\nretrying every %.1f s" % (text, params.master_check_s))
 
     watch.state.connect(on_state)
@@ -320,7 +327,11 @@ def pick_robot(app, uri, ns, params, dialog):
 
 
 def main(argv=None):
-    argv = sys.argv if argv is None else argv
+    """The node; exits with run()'s code (0 closed, 1 cancelled, 2 bad arguments)."""
+    sys.exit(run(sys.argv if argv is None else argv))
+
+
+def run(argv):
     import rospy
     args = rospy.myargv(argv)[1:]
     parser = argparse.ArgumentParser(prog="operator_gui", description=__doc__.split("\n")[0])

@@ -1,0 +1,88 @@
+"""The node `operator_gui` as a process (offscreen) against a real roscore that is not
+there yet, comes up, goes away and comes back: the GUI waits without hanging, registers
+when the master appears, and registers again with a restarted master."""
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import xmlrpc.client
+from pathlib import Path
+
+import pytest
+
+NODE = Path(__file__).resolve().parents[1] / "nodes" / "operator_gui"
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def registered(uri):
+    """Is /operator_gui known to the master at uri?"""
+    try:
+        code, _, _ = xmlrpc.client.ServerProxy(uri).lookupNode("/test", "/operator_gui")
+    except OSError:
+        return False
+    return code == 1
+
+
+def wait(condition, timeout_s, what):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, "timed out waiting for %s" % what
+        time.sleep(0.2)
+
+
+def roscore(port, env):
+    return subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+
+
+def stop(proc):
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(5)
+
+
+@pytest.mark.skipif(not os.path.exists("/usr/bin/roscore"), reason="needs roscore")
+def test_gui_waits_for_the_master_and_registers_again_after_its_restart(tmp_path):
+    port = free_port()
+    uri = "http://127.0.0.1:%d/" % port
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", ROS_IP="127.0.0.1",
+               ROS_MASTER_URI=uri, ROS_HOME=str(tmp_path))
+    err = open(tmp_path / "stderr.txt", "w")
+    gui = subprocess.Popen([sys.executable, str(NODE), "--master", "127.0.0.1:%d" % port],
+                           env=env, stdout=subprocess.DEVNULL, stderr=err,
+                           start_new_session=True)
+    core = None
+    try:
+        wait(lambda: "unreachable" in (tmp_path / "stderr.txt").read_text(), 20.0,
+             "the GUI naming the unreachable master")
+        time.sleep(1.5)
+        assert gui.poll() is None, "the GUI ended instead of waiting for the master"
+        core = roscore(port, env)
+        wait(lambda: registered(uri), 40.0, "the GUI registered with the master")
+        stop(core)
+        time.sleep(2.0)
+        assert gui.poll() is None, "the GUI ended when the master went away"
+        core = roscore(port, env)
+        wait(lambda: registered(uri), 40.0, "the GUI registered again (master restarted)")
+        assert gui.poll() is None
+    finally:
+        stop(gui)
+        if core is not None:
+            stop(core)
+        err.close()
+    text = (tmp_path / "stderr.txt").read_text()
+    assert "Traceback" not in text, text
+    assert gui.returncode == 0, text
