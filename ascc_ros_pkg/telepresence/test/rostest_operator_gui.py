@@ -7,6 +7,7 @@ move_base action of launch/sim/telepresence.launch; the effects are checked on t
 simulator's ground truth."""
 import math
 import os
+import subprocess
 import sys
 import time
 import unittest
@@ -17,6 +18,7 @@ import numpy as np  # noqa: E402
 import rospy  # noqa: E402
 import rostest  # noqa: E402
 from actionlib_msgs.msg import GoalStatusArray  # noqa: E402
+from geometry_msgs.msg import Twist  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from PyQt5.QtCore import QPoint, Qt  # noqa: E402
 from PyQt5.QtTest import QTest  # noqa: E402
@@ -177,6 +179,37 @@ class OperatorGuiTest(unittest.TestCase):
         QTest.mouseClick(w.drive.cancel_button, Qt.LeftButton)
         qt_wait_for(lambda: "cancel" in w.status.text("goal"), 10.0, "goal cancelled")
         qt_wait_for(lambda: self.speed() < STOPPED_MPS, 3.0, "stopped after cancel")
+
+    def test_5_goal_without_navigator_is_shown_as_a_fault(self):
+        w = self.window
+        subprocess.run(["rosnode", "kill", "move_base"], check=True, timeout=30,
+                       stdout=subprocess.DEVNULL)
+        qt_wait_for(lambda: not self.adapter.goal_client.wait_for_server(rospy.Duration(0.01)),
+                    20.0, "move_base gone")
+        x, y, _ = w.map.robot
+        px, py = w.map.view.to_pixel(x + 0.5, y)
+        t0 = time.monotonic()
+        QTest.mouseClick(w.map, Qt.LeftButton, Qt.NoModifier,
+                         QPoint(int(round(float(px))), int(round(float(py)))))
+        self.assertLess(time.monotonic() - t0, 1.0)  # the UI did not hang on it
+        QTest.qWait(200)
+        self.assertIn("no move_base", w.status.text("goal"))
+        self.assertIn("c00", w.status.labels["goal"].styleSheet())
+        self.assertFalse(w.drive.cancel_button.isEnabled())
+
+    def test_6_silent_robot_is_shown_and_does_not_take_commands(self):
+        w = self.window
+        teleop = Latest("teleop/cmd_vel", Twist)
+        subprocess.run(["rosnode", "kill", "driver"], check=True, timeout=30,
+                       stdout=subprocess.DEVNULL)  # no odometry from here on
+        qt_wait_for(lambda: "silent" in w.status.text("link"), 10.0, "the link shown down")
+        self.assertIn("c00", w.status.labels["link"].styleSheet())
+        qt_wait_for(lambda: teleop.sub.get_num_connections() >= 1, 10.0,
+                    "the test listening to the GUI's teleop/cmd_vel")
+        QTest.mousePress(w.drive.buttons[FORWARD], Qt.LeftButton)
+        QTest.qWait(600)
+        QTest.mouseRelease(w.drive.buttons[FORWARD], Qt.LeftButton)
+        self.assertEqual(teleop.count, 0, "teleop commands published to a silent robot")
 
 
 if __name__ == "__main__":
