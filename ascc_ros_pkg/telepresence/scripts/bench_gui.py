@@ -31,11 +31,12 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
-from PyQt5.QtCore import QObject, QTimer, pyqtSignal  # noqa: E402
+from PyQt5.QtCore import QTimer  # noqa: E402
 from PyQt5.QtWidgets import QApplication  # noqa: E402
 
 from ascc_common.grid import GridInfo  # noqa: E402
 from telepresence.gui.widgets import MapWidget, VideoWidget  # noqa: E402
+from telepresence.gui.window import AdapterSignals  # noqa: E402
 from telepresence.teleop import decode_jpeg, grid_image, percentiles  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
@@ -142,11 +143,6 @@ def bench_video(app, repeats):
     return out
 
 
-class Feeder(QObject):
-    frame = pyqtSignal(object, float)
-    grid = pyqtSignal(object, object, object)
-
-
 def bench_stall(app, raw, seconds):
     """The event loop under 10 fps video + a 4000 x 4000 map every 2 s."""
     video, mapw = VideoWidget(clock=time.time), MapWidget()
@@ -154,7 +150,7 @@ def bench_stall(app, raw, seconds):
     mapw.resize(640, 640)
     video.show()
     mapw.show()
-    feeder = Feeder()
+    feeder = AdapterSignals()
     feeder.frame.connect(video.show_frame)
     feeder.grid.connect(mapw.set_map)
     side = mapw.side_px()

@@ -8,28 +8,20 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from PyQt5.QtCore import QObject, QPoint, Qt, pyqtSignal  # noqa: E402
+from PyQt5.QtCore import QPoint, Qt  # noqa: E402
 from PyQt5.QtTest import QTest  # noqa: E402
 from PyQt5.QtWidgets import QApplication  # noqa: E402
 
 from ascc_common.grid import GridInfo  # noqa: E402
 from telepresence.gui.widgets import ConnectDialog, MapWidget, VideoWidget  # noqa: E402
-from telepresence.gui.window import OperatorWindow  # noqa: E402
+from telepresence.gui.window import AdapterSignals, OperatorWindow  # noqa: E402
 from telepresence.teleop import FORWARD, OperatorGuiParams  # noqa: E402
 
 APP = QApplication.instance() or QApplication([])
 
 
-class Recorder(QObject):
-    frame = pyqtSignal(object, float)
-    grid = pyqtSignal(object, object, object)
-    pose = pyqtSignal(float, float, float)
-    battery = pyqtSignal(str, bool)
-    hazards = pyqtSignal(str, str, bool)
-    mux_active = pyqtSignal(str)
-    gesture_state = pyqtSignal(str)
-    goal_status = pyqtSignal(str, bool, bool)
-    link = pyqtSignal(bool, str)
+class Recorder(AdapterSignals):
+    """The adapter's signals; records what the window asks of the ROS side."""
 
     def __init__(self):
         super().__init__()

@@ -1,16 +1,12 @@
 """The operator's main window: video, map, drive panel and status, wired to the drive
 lease and an adapter (the ROS side, or a test's) through Qt signals.
 
-The adapter is a QObject with the signals ``frame(object bgr, float stamp_s)``,
-``grid(object grid, object GridInfo, object image or None)``, ``pose(float x, float y, float yaw)``,
-``battery(str, bool fault)``, ``hazards(str bumpers, str wheel_drops, bool fault)``,
-``mux_active(str)``, ``gesture_state(str)``, ``goal_status(str, bool active, bool
-fault)``, ``link(bool up, str what)`` and the methods ``publish_cmd(v, w)``,
+The adapter is an ``AdapterSignals`` (its signals) with the methods ``publish_cmd(v, w)``,
 ``publish_estop(bool)``, ``send_goal(x, y, yaw)``, ``cancel_goal()``, ``now()`` (the
-clock of the frames' stamps [s])."""
+clock of the frames' stamps [s]) and the attribute ``map_side_px`` (set by the window)."""
 from __future__ import annotations
 
-from PyQt5.QtCore import QEvent, Qt, QTimer
+from PyQt5.QtCore import QEvent, QObject, Qt, QTimer, pyqtSignal
 from PyQt5.QtWidgets import QHBoxLayout, QMainWindow, QSplitter, QVBoxLayout, QWidget
 
 from telepresence.gui.widgets import DrivePanel, MapWidget, StatusPanel, VideoWidget
@@ -27,6 +23,21 @@ from telepresence.teleop import (
 
 KEYS = {Qt.Key_Up: FORWARD, Qt.Key_W: FORWARD, Qt.Key_Down: BACKWARD, Qt.Key_S: BACKWARD,
         Qt.Key_Left: LEFT, Qt.Key_A: LEFT, Qt.Key_Right: RIGHT, Qt.Key_D: RIGHT}
+
+
+class AdapterSignals(QObject):
+    """What the ROS side tells the window (emitted from any thread, delivered in the UI
+    thread)."""
+
+    frame = pyqtSignal(object, float)  # BGR image, its stamp [s]
+    grid = pyqtSignal(object, object, object)  # int8 grid, GridInfo, grey image or None
+    pose = pyqtSignal(float, float, float)  # robot in the map frame: x, y [m], yaw [rad]
+    battery = pyqtSignal(str, bool)  # text, fault
+    hazards = pyqtSignal(str, str, bool)  # bumpers, wheel drops, fault
+    mux_active = pyqtSignal(str)  # velocity_mux/active
+    gesture_state = pyqtSignal(str)  # gesture_control/state
+    goal_status = pyqtSignal(str, bool, bool)  # text, active, fault
+    link = pyqtSignal(bool, str)  # up, what
 
 
 class OperatorWindow(QMainWindow):

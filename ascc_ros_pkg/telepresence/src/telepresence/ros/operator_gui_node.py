@@ -37,7 +37,7 @@ from ascc_common.grid import GridInfo
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from telepresence.gui.widgets import ConnectDialog
-from telepresence.gui.window import OperatorWindow
+from telepresence.gui.window import AdapterSignals, OperatorWindow
 from telepresence.teleop import (
     OperatorGuiParams,
     check_master,
@@ -75,19 +75,9 @@ class MasterWatch(QObject):
         self.stopping.set()
 
 
-class RosAdapter(QObject):
+class RosAdapter(AdapterSignals):
     """The GUI's ROS I/O; callbacks run in rospy's threads and reach the widgets only
-    through these signals (queued into the UI thread)."""
-
-    frame = pyqtSignal(object, float)
-    grid = pyqtSignal(object, object, object)
-    pose = pyqtSignal(float, float, float)
-    battery = pyqtSignal(str, bool)
-    hazards = pyqtSignal(str, str, bool)
-    mux_active = pyqtSignal(str)
-    gesture_state = pyqtSignal(str)
-    goal_status = pyqtSignal(str, bool, bool)
-    link = pyqtSignal(bool, str)
+    through the signals (queued into the UI thread)."""
 
     def __init__(self, params: OperatorGuiParams):
         super().__init__()
