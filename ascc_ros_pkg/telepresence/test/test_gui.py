@@ -136,6 +136,10 @@ def test_emergency_stop_latched_until_rearm(gui):
     assert len(rec.cmds) == n
     QTest.keyPress(w, Qt.Key_Space)
     assert rec.estops == [True, False, True]
+    rec.mux_active.emit("idle")  # the mux's news do not hide the engaged e-stop
+    assert w.status.text("mode") == "EMERGENCY STOP (mux: idle)"
+    QTest.mouseClick(w.drive.rearm_button, Qt.LeftButton)
+    assert w.status.text("mode") == "idle" and "c00" not in w.status.labels["mode"].styleSheet()
 
 
 def test_map_click_sends_a_goal_in_the_map_frame(gui):

@@ -24,6 +24,11 @@ def free_port():
     return port
 
 
+def port_open(port):
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
 def registered(uri):
     """Is /operator_gui known to the master at uri?"""
     try:
@@ -55,6 +60,28 @@ def stop(proc):
             proc.wait(5)
 
 
+def test_ctrl_c_ends_the_wait_for_an_unreachable_master(tmp_path):
+    port = free_port()
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", ROS_IP="127.0.0.1",
+               ROS_HOME=str(tmp_path))
+    gui = subprocess.Popen([sys.executable, str(NODE), "--master", "127.0.0.1:%d" % port],
+                           env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                           start_new_session=True, text=True)
+    time.sleep(3.0)
+    assert gui.poll() is None
+    os.killpg(gui.pid, signal.SIGINT)
+    _, err = gui.communicate(timeout=10)
+    assert gui.returncode == 1, err  # cancelled: no robot picked
+    assert "unreachable" in err and "Traceback" not in err, err
+
+
+def test_bad_address_is_named():
+    gui = subprocess.run([sys.executable, str(NODE), "--master", "https://x:1/"],
+                         env=dict(os.environ, QT_QPA_PLATFORM="offscreen"),
+                         capture_output=True, text=True, timeout=30)
+    assert gui.returncode == 2 and "address" in gui.stderr
+
+
 @pytest.mark.skipif(not os.path.exists("/usr/bin/roscore"), reason="needs roscore")
 def test_gui_waits_for_the_master_and_registers_again_after_its_restart(tmp_path):
     port = free_port()
@@ -74,9 +101,12 @@ def test_gui_waits_for_the_master_and_registers_again_after_its_restart(tmp_path
         core = roscore(port, env)
         wait(lambda: registered(uri), 40.0, "the GUI registered with the master")
         stop(core)
+        wait(lambda: not port_open(port), 20.0, "the old master's port closed")
         time.sleep(2.0)
         assert gui.poll() is None, "the GUI ended when the master went away"
         core = roscore(port, env)
+        wait(lambda: port_open(port) or core.poll() is not None, 40.0, "the new master")
+        assert core.poll() is None, "the new roscore did not start"
         wait(lambda: registered(uri), 40.0, "the GUI registered again (master restarted)")
         assert gui.poll() is None
     finally:

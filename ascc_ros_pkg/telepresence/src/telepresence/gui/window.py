@@ -54,6 +54,8 @@ class OperatorWindow(QMainWindow):
         self.status = StatusPanel()
         self.goal_active = False
         self.last_cmd = None
+        self.mux_active = "-"
+
 
         side = QWidget()
         col = QVBoxLayout(side)
@@ -84,7 +86,7 @@ class OperatorWindow(QMainWindow):
         adapter.pose.connect(self.map.set_robot)
         adapter.battery.connect(lambda t, f: self.status.show("battery", t, f))
         adapter.hazards.connect(self.on_hazards)
-        adapter.mux_active.connect(lambda t: self.status.show("mode", t, t == "idle (e_stop)"))
+        adapter.mux_active.connect(self.on_mux_active)
         adapter.gesture_state.connect(
             lambda t: self.status.show("gesture", t if t == "idle" else
                                        "%s: gesture control has the robot" % t, False))
@@ -153,13 +155,13 @@ class OperatorWindow(QMainWindow):
     def on_estop(self):
         self.adapter.publish_estop(self.estop.engage())
         self.drive.show_estop(True)
-        self.status.show("mode", "EMERGENCY STOP (re-arm to drive)", True)
+        self.status.show("mode", "EMERGENCY STOP (mux: %s)" % self.mux_active, True)
         self.tick()
 
     def on_rearm(self):
         self.adapter.publish_estop(self.estop.rearm())
         self.drive.show_estop(False)
-        self.status.show("mode", "re-armed", False)
+        self.status.show("mode", self.mux_active, False)
 
     # -- goals ------------------------------------------------------------------------
     def on_map_click(self, x, y):
@@ -187,6 +189,14 @@ class OperatorWindow(QMainWindow):
     # -- status -----------------------------------------------------------------------
     def on_frame(self, bgr, stamp_s):
         self.video.show_frame(bgr, stamp_s)
+
+    def on_mux_active(self, active):
+        """The mux's active input; the e-stop stays visible while engaged."""
+        self.mux_active = active
+        if self.estop.engaged:
+            self.status.show("mode", "EMERGENCY STOP (mux: %s)" % active, True)
+        else:
+            self.status.show("mode", active, False)
 
     def on_hazards(self, bumpers, drops, fault):
         self.status.show("bumpers", bumpers, fault and bumpers != "none")

@@ -286,12 +286,22 @@ def make_window(uri, title):
 
 def pick_robot(app, uri, ns, params, dialog):
     """The master and namespace: given, or from the dialog; then waited for (the check in
-    a thread, shown in a message box that the operator may cancel). None if cancelled."""
-    if dialog:
-        d = ConnectDialog(uri, ns)
-        if d.exec_() != QDialog.Accepted:
+    a thread, shown in a message box that the operator may cancel: back to the dialog if
+    there is one). None if cancelled."""
+    while True:
+        if dialog:
+            d = ConnectDialog(uri, ns)
+            if d.exec_() != QDialog.Accepted:
+                return None
+            uri, ns = d.result_uri, d.result_ns
+        if wait_for_master(uri, params):
+            return uri, ns
+        if not dialog:
             return None
-        uri, ns = d.result_uri, d.result_ns
+
+
+def wait_for_master(uri, params):
+    """True when the master at uri answers, False if the operator cancels the wait."""
     watch = MasterWatch(uri, params.master_check_s, params.master_timeout_s)
     box = QMessageBox(QMessageBox.Information, "ASCCbot telepresence",
                       "checking %s ..." % uri, QMessageBox.Cancel)
@@ -311,9 +321,7 @@ def pick_robot(app, uri, ns, params, dialog):
     watch.start()
     box.exec_()
     watch.stop()
-    if not result.get("ok"):
-        return None
-    return uri, ns
+    return bool(result.get("ok"))
 
 
 def main(argv=None):
@@ -330,6 +338,10 @@ def run(argv):
     parser.add_argument("--dialog", action="store_true", help="always show the start dialog")
     opts = parser.parse_args(args)
     app = QApplication(argv[:1])
+    signal.signal(signal.SIGINT, lambda *_: app.quit())  # also ends the waiting dialogs
+    timer = QTimer()  # Ctrl-C / rosnode kill end the Qt loops (Python sees signals)
+    timer.timeout.connect(lambda: app.quit() if rospy.is_shutdown() else None)
+    timer.start(200)
     params = OperatorGuiParams()
     env_uri = os.environ.get("ROS_MASTER_URI", "")
     try:
@@ -347,10 +359,6 @@ def run(argv):
         os.environ["ROS_NAMESPACE"] = ns
     rospy.init_node("operator_gui", argv=argv, anonymous=False, disable_signals=True)
     adapter, window, watch = make_window(uri, "%s %s" % (uri, ns))
-    signal.signal(signal.SIGINT, lambda *_: app.quit())
-    timer = QTimer()  # Ctrl-C / rosnode kill end the Qt loop (Python sees signals)
-    timer.timeout.connect(lambda: app.quit() if rospy.is_shutdown() else None)
-    timer.start(200)
     rospy.on_shutdown(lambda: app.quit())
     rc = app.exec_()
     watch.stop()
