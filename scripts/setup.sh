@@ -21,6 +21,7 @@ APT_PACKAGES=(
   libstd-srvs-dev libtf2-msgs-dev python3-venv python3-dev
   ros-robot-state-publisher libdiagnostic-aggregator-dev libdiagnostic-aggregator-tools
   liburdfdom-tools rviz python3-pyqt5
+  python3-tornado python3-selenium chromium chromium-driver
 )
 
 log() { printf '[setup] %s\n' "$*"; }

@@ -25,6 +25,7 @@ PYTHON_KEYS = {"numpy": "python3-numpy", "cv2": "python3-opencv", "yaml": "pytho
                "scipy": "python3-scipy", "sklearn": "python3-sklearn",
                "hmmlearn": "python3-hmmlearn-pip", "joblib": "python3-joblib",
                "PyQt5": "python3-pyqt5",
+               "tornado": "python3-tornado", "selenium": "python3-selenium",
                # a ROS package that Debian ships without its package.xml
                "diagnostic_updater": "diagnostic_updater"}
 STDLIB = os.path.realpath(sysconfig.get_paths()["stdlib"])
