@@ -41,6 +41,7 @@ from telepresence.ros.gesture_control_node import GestureControlNodeParams
 from telepresence.ros.gesture_recognizer_node import GestureNodeParams
 from telepresence.skeleton_sim import SkeletonSimParams
 from telepresence.teleop import OperatorGuiParams
+from web_console.params import WebConsoleParams
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -61,6 +62,7 @@ TABLES = {
                                              OperatorGuiParams],
     "ascc_ros_pkg/semantic_mapping/README.md": [LocationParams, ReceiverParams,
                                                  EmulatorParams, RecognizerNodeParams],
+    "ascc_ros_pkg/web_console/README.md": [WebConsoleParams],
 }
 
 

@@ -111,7 +111,8 @@ class BrowserSimTest(unittest.TestCase):
         self.browser.switch_to.window(self.keeper)
 
     def page_state(self):
-        return self.js("""const s = window.consoleState, t = (id) => document.getElementById(id).textContent;
+        return self.js("""const s = window.consoleState;
+            const t = (id) => document.getElementById(id).textContent;
             return {stick: s.stick, driving: s.driving, message: t('message'), driver: t('driver'),
                     mode: t('mode'), link: t('link'), viewport: [innerWidth, innerHeight]};""")
 
@@ -149,7 +150,6 @@ class BrowserSimTest(unittest.TestCase):
         self.js_wait("return window.consoleState.frames >= 20", 30.0, "20 video frames")
         width = self.js("return document.getElementById('video').naturalWidth")
         self.assertGreater(width, 100, "the video element shows no image")
-        age = self.js("return document.getElementById('age').textContent")
         # the label agrees with the age it shows: stale beyond max_frame_age_s (0.5 s)
         for _ in range(10):
             label = self.js("return document.getElementById('age').textContent")
@@ -191,19 +191,20 @@ class BrowserSimTest(unittest.TestCase):
         self.js_wait("const s = window.consoleState; return s.map && s.status && s.status.pose",
                      60.0, "the map and the robot's pose on the page")
         x, y, _ = self.js("return window.consoleState.status.pose")
-        goal = (x + 1.5, y)
+        goal = (x + 3.0, y)  # along the corridor: far enough not to be reached before cancel
         off = self.js("""
             const c = document.getElementById('map'), r = c.getBoundingClientRect();
             const q = window.consoleWorldToCanvas(arguments[0], arguments[1]);
-            return [q[0] * r.width / c.width - r.width / 2, q[1] * r.height / c.height - r.height / 2];
+            return [q[0] * r.width / c.width - r.width / 2,
+                    q[1] * r.height / c.height - r.height / 2];
             """, goal[0], goal[1])
         from selenium.webdriver.common.action_chains import ActionChains
         canvas = self.browser.find_element("id", "map")
         t_click = time.monotonic()
         ActionChains(self.browser).move_to_element_with_offset(canvas, off[0], off[1]) \
             .click().perform()
-        self.js_wait("const g = window.consoleState.status.goal; return g && g.state === 'active'",
-                     20.0, "the goal active on the page")
+        self.js_wait("const g = window.consoleState.status.goal; "
+                     "return g && g.state === 'active'", 20.0, "the goal active on the page")
         g = self.js("return window.consoleState.status.goal")
         self.assertLess(math.hypot(g["x"] - goal[0], g["y"] - goal[1]), 0.1,
                         "clicked %s, goal %s" % (goal, g))
@@ -212,13 +213,12 @@ class BrowserSimTest(unittest.TestCase):
         self.assertTrue(active, "move_base reported no active goal")
         wait_for(lambda: any(m.linear.x > 0.0 for _, m in self.cmd.since(t_click)), 20.0,
                  "move_base driving toward the goal")
-        time.sleep(1.0)  # the path on the map for the screenshot
         shot = os.environ.get("WEB_CONSOLE_SCREENSHOT")
         if shot:
             self.browser.save_screenshot(shot)
         self.browser.find_element("id", "cancel").click()
-        self.js_wait("const g = window.consoleState.status.goal; return g && g.state === 'cancelled'",
-                     20.0, "the goal cancelled")
+        self.js_wait("const g = window.consoleState.status.goal; "
+                     "return g && g.state === 'cancelled'", 20.0, "the goal cancelled")
 
 
 if __name__ == "__main__":

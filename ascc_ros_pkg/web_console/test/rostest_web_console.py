@@ -23,9 +23,9 @@ from move_base_msgs.msg import MoveBaseActionGoal
 from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import CompressedImage
 from std_msgs.msg import Bool
-from web_console.client import ConsoleClient
 
 from ascc_testing.waits import wait_for
+from web_console.client import ConsoleClient
 
 NODE = "/web_console"
 TOKEN = "tok"

@@ -1,5 +1,6 @@
 """The drive lease: one page drives; its commands hold for lease_s; one zero when it ends."""
 import pytest
+
 from web_console.lease import BUSY, HOLD, DriveLease
 
 

@@ -1,9 +1,9 @@
 """The map PNG: map_server's shades, north up, geometry header."""
 import cv2
 import numpy as np
-from web_console.map_image import UNKNOWN_GREY, grid_to_png, map_header
 
 from ascc_common.grid import GridInfo
+from web_console.map_image import UNKNOWN_GREY, grid_to_png, map_header
 
 
 def test_shades_and_flip():

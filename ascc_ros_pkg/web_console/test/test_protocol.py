@@ -3,6 +3,7 @@ import json
 import math
 
 import pytest
+
 from web_console.protocol import (
     MAP,
     VIDEO,

@@ -203,7 +203,8 @@ class Hub:
 
     def _on_cancel(self, client, _msg):
         self._need_token(client, "cancelling")
-        self.node.cancel_goal()
+        if not self.node.cancel_goal():
+            raise ProtocolError("no goal of this console to cancel")
 
     # -- ROS data (called through IOLoop.add_callback) ---------------------------------
     def on_video(self, stamp, jpeg):
@@ -423,7 +424,12 @@ class WebConsoleNode:
                       self.p.map_frame)
 
     def cancel_goal(self):
+        """Cancel the goal this console sent; False when none is pending or active."""
+        if self.move_base.gh is None or self.move_base.get_state() not in (
+                GoalStatus.PENDING, GoalStatus.ACTIVE):
+            return False
         self.move_base.cancel_goal()
+        return True
 
     def status(self):
         with self.lock:
