@@ -39,7 +39,7 @@ VARIANTS = {
     "launch/sim/telepresence.launch": [{"gui": "false", "gestures": "false"},
                                        {"episodes": "rest,come_close", "gui_args": "--dialog"}],
     "launch/explore_demo.launch": [{"world": "lab", "strategy": "nearest"}],
-    "launch/sim/office.launch": [{"rviz": "true"}],
+    "launch/sim/office.launch": [{"rviz": "true"}, {"web_console": "true", "console_port": "0"}],
     "ascc_ros_pkg/asccbot_bringup/launch/description.launch": [
         {"layout": "webcam", "robot_model": "create_2", "telepresence": "true",
          "layer_heights_m": "[0.1,0.2,0.3,0.6]", "frame_prefix": "robotA/"}],

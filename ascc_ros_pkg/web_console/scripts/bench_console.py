@@ -8,9 +8,12 @@ free port) and measures, on loopback:
     ping round trip), beside the camera's own rate and age at a ROS subscriber;
   * the server's CPU (web_console process, % of one core) with 0, 1 and 10 pages
     watching the video;
-  * stop latency: a page drives (teleop, 20 Hz), then closes its socket ("tab closed") or
-    falls silent with the socket open ("network cut"); time to the first zero command on
-    ``cmd_vel`` (the mux's output: the driver's input), ``--trials`` of each.
+  * stop latency: a page drives (teleop, 20 Hz), then closes its socket mid-lease ("tab
+    closed": from the close) or falls silent with the socket open ("network cut": from
+    its last command, the worst case); time to the first zero command on ``cmd_vel``
+    (the mux's output: the driver's input), ``--trials`` of each.
+Then, as the simulated camera renders slower than 10 fps on a loaded machine, a second
+console (namespace ``replay``) is fed one of its frames at 10 fps: video and CPU again.
 Pages are web_console.client.ConsoleClient (the page's protocol over tornado's client).
 
   python ascc_ros_pkg/web_console/scripts/bench_console.py [--seconds 20] [--trials 20]
@@ -71,7 +74,7 @@ def rtt_s(page) -> float:
     return float(np.median(samples))
 
 
-def bench_video(url, seconds):
+def bench_video(url, seconds, ns=""):
     import rospy
     from sensor_msgs.msg import CompressedImage
 
@@ -80,8 +83,9 @@ def bench_video(url, seconds):
 
     def on_image(msg):
         with lock:
-            ros_ages.append((time.monotonic(), rospy.get_time() - msg.header.stamp.to_sec()))
-    sub = rospy.Subscriber("camera/image_raw/compressed", CompressedImage, on_image,
+            stamp = msg.header.stamp.to_sec()
+            ros_ages.append((time.monotonic(), round(stamp, 6), rospy.get_time() - stamp))
+    sub = rospy.Subscriber(ns + "camera/image_raw/compressed", CompressedImage, on_image,
                            queue_size=1, buff_size=2 ** 22)
     page = ConsoleClient(url, keep_payload=False)
     half_rtt = rtt_s(page) / 2.0
@@ -92,11 +96,16 @@ def bench_video(url, seconds):
     page.close()
     sub.unregister()
     with lock:
-        ros = [a for t, a in ros_ages if t0 <= t < t1]
+        ros = [(s, a) for t, s, a in ros_ages if t0 <= t < t1]
+    # the same frame at a ROS subscriber and at the page: what the console adds
+    at_ros = dict(ros)
+    added = [f[2]["age_s"] + half_rtt - at_ros[round(f[2]["stamp"], 6)] for f in frames
+             if round(f[2]["stamp"], 6) in at_ros]
     return {"page_fps": round(len(frames) / (t1 - t0), 2),
             "page_age_ms": stats([f[2]["age_s"] + half_rtt for f in frames], 1000.0),
             "camera_fps_at_ros": round(len(ros) / (t1 - t0), 2),
-            "camera_age_ms_at_ros": stats(ros, 1000.0),
+            "camera_age_ms_at_ros": stats([a for _, a in ros], 1000.0),
+            "console_adds_ms": stats(added, 1000.0),
             "rtt_ms": round(2000.0 * half_rtt, 2)}
 
 
@@ -113,6 +122,7 @@ def bench_cpu(url, pid, seconds, counts=(0, 1, 10)):
         fps = [(len(p.frames) - k) / (t1 - t0) for p, k in zip(pages, n0)]
         out["%d_pages" % n] = {"cpu_percent": round(100.0 * (c1 - c0) / (t1 - t0), 1),
                                "min_page_fps": round(min(fps), 2) if fps else None,
+                               "mean_page_fps": round(float(np.mean(fps)), 2) if fps else None,
                                "load_1min": round(os.getloadavg()[0], 2)}
         for p in pages:
             p.close()
@@ -138,13 +148,18 @@ def bench_stop(url, trials):
             page = ConsoleClient(url)
             page.wait(lambda c: c.messages("hello"), 5.0)
             end = time.monotonic() + 1.0
-            while time.monotonic() < end:
+            while True:
                 page.send({"type": "drive", "linear": 0.1, "angular": 0.0})
+                t_last = time.monotonic()
+                if t_last >= end:
+                    break
                 time.sleep(0.05)
-            time.sleep(0.005)  # the last command is on its way
-            t_stop = time.monotonic()
             if how == "tab_closed":
+                time.sleep(0.02)  # mid-lease
+                t_stop = time.monotonic()
                 page.close()
+            else:  # nothing gets through after the last command: the worst case
+                t_stop = t_last
             deadline = t_stop + 2.0
             latency = None
             while latency is None and time.monotonic() < deadline:
@@ -159,6 +174,65 @@ def bench_stop(url, trials):
         ok = sum(1 for v in latencies if v < 0.3)
         out[how] = dict(stats(latencies, 1000.0), under_300ms="%d/%d" % (ok, trials))
     sub.unregister()
+    return out
+
+
+class Replay:
+    """Publishes ``jpeg`` (a frame of the simulated camera) at ``rate_hz`` on
+    ``replay/camera/image_raw/compressed``, stamped when published: the console alone,
+    without the simulated camera's rendering on the loaded machine."""
+
+    def __init__(self, jpeg, rate_hz=10.0):
+        import rospy
+        from sensor_msgs.msg import CompressedImage
+        self.pub = rospy.Publisher("replay/camera/image_raw/compressed", CompressedImage,
+                                   queue_size=1)
+        self.msg = CompressedImage(format="bgr8; jpeg compressed bgr8", data=jpeg)
+        self.msg.header.frame_id = "camera"
+        self.period_s, self.on = 1.0 / rate_hz, True
+        threading.Thread(target=self.run, daemon=True).start()
+
+    def run(self):
+        import rospy
+        next_t = time.monotonic()
+        while self.on:
+            self.msg.header.stamp = rospy.Time.now()
+            self.pub.publish(self.msg)
+            next_t += self.period_s
+            time.sleep(max(0.0, next_t - time.monotonic()))
+
+
+def one_frame():
+    import rospy
+    from sensor_msgs.msg import CompressedImage
+    msg = rospy.wait_for_message("camera/image_raw/compressed", CompressedImage, 30.0)
+    return bytes(msg.data)
+
+
+def bench_replay(seconds):
+    """A second console in namespace ``replay`` fed 10 fps of a real simulated frame."""
+    import rosgraph
+    import rospy
+    proc = subprocess.Popen(["rosrun", "web_console", "web_console", "__ns:=replay",
+                             "_port:=0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    replay = None
+    try:
+        deadline = time.monotonic() + 30.0
+        while not rosgraph.Master("/bench_console").hasParam("/replay/web_console/bound_port"):
+            if time.monotonic() > deadline:
+                raise RuntimeError("the replay console did not come up")
+            time.sleep(0.2)
+        url = "ws://127.0.0.1:%d/ws" % rospy.get_param("/replay/web_console/bound_port")
+        jpeg = one_frame()
+        replay = Replay(jpeg)
+        time.sleep(2.0)
+        out = {"frame_bytes": len(jpeg), "video": bench_video(url, seconds, "replay/"),
+               "cpu": bench_cpu(url, node_pid("/replay/web_console"), seconds)}
+    finally:
+        if replay is not None:
+            replay.on = False
+        proc.terminate()
+        proc.wait(30.0)
     return out
 
 
@@ -194,7 +268,8 @@ def main(argv=None) -> int:
                                                                 os.getloadavg()[0]),
                   "video": bench_video(url, args.seconds),
                   "cpu": bench_cpu(url, node_pid(NODE), args.seconds),
-                  "stop": bench_stop(url, args.trials)}
+                  "stop": bench_stop(url, args.trials),
+                  "replay_10fps": bench_replay(args.seconds)}
     finally:
         launch.terminate()
         try:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""rostest: the web_console node on real topics and real WebSockets (web_console.test).
+"""rostest: the web_console node on real topics and real WebSockets (console_node.test).
 
 The node runs with token ``tok`` behind the velocity mux; the test plays the camera
 (CompressedImage of random bytes at 20 Hz while ``camera_on``), the map (latched), and
