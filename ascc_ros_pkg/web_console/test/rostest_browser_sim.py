@@ -12,7 +12,6 @@ import math
 import os
 import shutil
 import sys
-import threading
 import time
 import unittest
 
@@ -22,7 +21,7 @@ from actionlib_msgs.msg import GoalStatusArray
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
-from ascc_testing.waits import wait_for
+from ascc_testing.waits import Recorder, wait_for
 
 NODE = "/web_console"
 CHROMIUM = ("chromium", "chromium-browser", "google-chrome")
@@ -50,26 +49,6 @@ def start_browser():
         opts.add_argument(arg)
     opts.binary_location = next(shutil.which(c) for c in CHROMIUM if shutil.which(c))
     return webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=opts)
-
-
-class Recorder:
-    """Every message on ``topic`` with its arrival (time.monotonic())."""
-
-    def __init__(self, topic, msg_type):
-        self.items, self.lock = [], threading.Lock()
-        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=200)
-
-    def _cb(self, msg):
-        with self.lock:
-            self.items.append((time.monotonic(), msg))
-
-    def since(self, t):
-        with self.lock:
-            return [(s, m) for s, m in self.items if s >= t]
-
-    def last(self):
-        with self.lock:
-            return self.items[-1][1] if self.items else None
 
 
 class BrowserSimTest(unittest.TestCase):

@@ -24,35 +24,12 @@ from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import CompressedImage
 from std_msgs.msg import Bool
 
-from ascc_testing.waits import wait_for
+from ascc_testing.waits import Recorder, wait_for
 from web_console.client import ConsoleClient
 
 NODE = "/web_console"
 TOKEN = "tok"
 FRAME_BYTES = 300000  # a big frame fills a never-reading page's socket within seconds
-
-
-class Recorder:
-    """Every message on ``topic`` with its arrival (time.monotonic())."""
-
-    def __init__(self, topic, msg_type):
-        self.items, self.lock = [], threading.Lock()
-        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=100)
-
-    def _cb(self, msg):
-        with self.lock:
-            self.items.append((time.monotonic(), msg))
-
-    def all_with_times(self):
-        with self.lock:
-            return list(self.items)
-
-    def all(self):
-        return [m for _, m in self.all_with_times()]
-
-    def last(self):
-        items = self.all_with_times()
-        return items[-1][1] if items else None
 
 
 def value_within(fn, timeout_s, what):
@@ -150,9 +127,9 @@ class WebConsoleTest(unittest.TestCase):
     def zero_after(self, t_wall, timeout_s=2.0):
         """Wall seconds from ``t_wall`` to the first zero on teleop/cmd_vel after it."""
         def first_zero():
-            for t, msg in self.teleop.all_with_times():
-                if t >= t_wall and msg.linear.x == 0.0 and msg.angular.z == 0.0:
-                    return t - t_wall
+            for t, msg in self.teleop.since(t_wall):
+                if msg.linear.x == 0.0 and msg.angular.z == 0.0:
+                    return max(t - t_wall, 1e-9)  # truthy even when immediate
             return None
         return value_within(first_zero, timeout_s, "a zero command after the page stopped")
 

@@ -71,3 +71,28 @@ class ConditionWaitMixin:
                     self.fail("timed out waiting for %s (statuses %s)"
                               % (what, getattr(self, "statuses", None)))
                 self.cond.wait(min(left, 0.5))
+
+
+class Recorder:
+    """Subscribes ``topic`` and keeps every message with its wall-clock arrival
+    (``time.monotonic()``): for latencies measured from a moment in the test."""
+
+    def __init__(self, topic, msg_type):
+        self.items, self._lock = [], threading.Lock()
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=200)
+
+    def _cb(self, msg):
+        with self._lock:
+            self.items.append((time.monotonic(), msg))
+
+    def since(self, t):
+        """[(arrival, msg)] of the messages that arrived at or after ``t``."""
+        with self._lock:
+            return [(s, m) for s, m in self.items if s >= t]
+
+    def all(self):
+        return [m for _, m in self.since(float("-inf"))]
+
+    def last(self):
+        with self._lock:
+            return self.items[-1][1] if self.items else None
