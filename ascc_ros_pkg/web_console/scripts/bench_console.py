@@ -109,8 +109,20 @@ def bench_video(url, seconds, ns=""):
             "rtt_ms": round(2000.0 * half_rtt, 2)}
 
 
-def bench_cpu(url, pid, seconds, counts=(0, 1, 10)):
+def bench_cpu(url, pid, seconds, counts=(0, 1, 10), ns=""):
+    """The console's CPU with 0, 1, 10 pages, and beside it whether the robot keeps its
+    cycles: the driver's odometry rate (its ~publish_rate_hz, 30 Hz cap)."""
+    import rospy
+    from nav_msgs.msg import Odometry
+    from sensor_msgs.msg import CompressedImage
+
     from web_console.client import ConsoleClient
+    odom, frames = [], []
+    subs = [rospy.Subscriber("odom", Odometry, lambda m: odom.append(time.monotonic()),
+                             queue_size=100),
+            rospy.Subscriber(ns + "camera/image_raw/compressed", CompressedImage,
+                             lambda m: frames.append(time.monotonic()), queue_size=1,
+                             buff_size=2 ** 22)]
     out = {}
     for n in counts:
         pages = [ConsoleClient(url, keep_payload=False) for _ in range(n)]
@@ -120,13 +132,19 @@ def bench_cpu(url, pid, seconds, counts=(0, 1, 10)):
         time.sleep(seconds)
         c1, t1 = cpu_seconds(pid), time.monotonic()
         fps = [(len(p.frames) - k) / (t1 - t0) for p, k in zip(pages, n0)]
+        odom_hz = sum(1 for t in odom if t0 <= t < t1) / (t1 - t0)
+        camera_hz = sum(1 for t in frames if t0 <= t < t1) / (t1 - t0)
         out["%d_pages" % n] = {"cpu_percent": round(100.0 * (c1 - c0) / (t1 - t0), 1),
                                "min_page_fps": round(min(fps), 2) if fps else None,
                                "mean_page_fps": round(float(np.mean(fps)), 2) if fps else None,
+                               "camera_fps_at_ros": round(camera_hz, 2),
+                               "driver_odom_hz": round(odom_hz, 1),
                                "load_1min": round(os.getloadavg()[0], 2)}
         for p in pages:
             p.close()
         time.sleep(1.0)
+    for sub in subs:
+        sub.unregister()
     return out
 
 
@@ -227,7 +245,8 @@ def bench_replay(seconds):
         replay = Replay(jpeg)
         time.sleep(2.0)
         out = {"frame_bytes": len(jpeg), "video": bench_video(url, seconds, "replay/"),
-               "cpu": bench_cpu(url, node_pid("/replay/web_console"), seconds)}
+               "cpu": bench_cpu(url, node_pid("/replay/web_console"), seconds,
+                                ns="replay/")}
     finally:
         if replay is not None:
             replay.on = False

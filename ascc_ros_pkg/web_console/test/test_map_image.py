@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 
 from ascc_common.grid import GridInfo
-from web_console.map_image import UNKNOWN_GREY, grid_to_png, map_header
+from web_console.map_image import UNKNOWN_GREY, crop_known, grid_to_png, map_header
 
 
 def test_shades_and_flip():
@@ -29,3 +29,23 @@ def test_header():
     h = map_header(info)
     assert h == {"width": 320, "height": 220, "resolution": 0.05, "origin_x": -1.0,
                  "origin_y": -2.5}
+
+
+def test_crop_to_the_known_part_with_a_margin():
+    grid = np.full((100, 200), -1, dtype=np.int8)
+    grid[40:50, 120:150] = 0
+    grid[45, 130] = 100
+    info = GridInfo(0.05, 200, 100, -5.0, -2.5)
+    part, sub = crop_known(grid, info, margin_cells=5)
+    assert part.shape == (20, 40) and (sub.width, sub.height) == (40, 20)
+    assert sub.origin_x == -5.0 + 115 * 0.05 and sub.origin_y == -2.5 + 35 * 0.05
+    # the same world point is the same cell in both
+    assert sub.world_to_cell(*info.cell_to_world(130, 45)) == (15, 10)
+    assert part[10, 15] == 100
+    # clipped at the edges, and an unknown grid stays whole
+    grid[0, 0] = 0
+    part, sub = crop_known(grid, info, margin_cells=5)
+    assert (sub.origin_x, sub.origin_y) == (info.origin_x, info.origin_y)
+    assert part.shape == (55, 155)
+    empty = np.full((10, 10), -1, dtype=np.int8)
+    assert crop_known(empty, info, 5)[1] is info

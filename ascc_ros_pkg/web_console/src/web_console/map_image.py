@@ -6,7 +6,7 @@ grid's last (largest y). One table lookup over the whole grid, no per-cell loop.
 """
 from __future__ import annotations
 
-from typing import Any, Dict
+from typing import Any, Dict, Tuple
 
 import cv2
 import numpy as np
@@ -36,3 +36,20 @@ def map_header(info: GridInfo) -> Dict[str, Any]:
     width, height = info.width, info.height
     return {"width": int(width), "height": int(height), "resolution": float(info.resolution),
             "origin_x": float(info.origin_x), "origin_y": float(info.origin_y)}
+
+
+def crop_known(grid: np.ndarray, info: GridInfo, margin_cells: int) -> Tuple[np.ndarray, GridInfo]:
+    """The part of ``grid[iy, ix]`` that holds known cells (values 0..100), grown by
+    ``margin_cells`` and clipped to the grid, with its GridInfo (an axis-aligned grid; the
+    origin moves to the crop's corner). A grid without known cells is returned whole: a
+    mapper's large, mostly unknown canvas shows as its explored part on a small screen."""
+    known = (grid >= 0) & (grid <= 100)
+    rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
+    if rows.size == 0:
+        return grid, info
+    y0, y1 = max(0, rows[0] - margin_cells), min(grid.shape[0], rows[-1] + 1 + margin_cells)
+    x0, x1 = max(0, cols[0] - margin_cells), min(grid.shape[1], cols[-1] + 1 + margin_cells)
+    cropped = GridInfo(info.resolution, x1 - x0, y1 - y0,
+                       info.origin_x + x0 * info.resolution,
+                       info.origin_y + y0 * info.resolution)
+    return grid[y0:y1, x0:x1], cropped

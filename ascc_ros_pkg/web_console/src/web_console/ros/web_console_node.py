@@ -35,7 +35,7 @@ from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from ascc_common.throttle import Throttle
 from irobot_create_2_1.msg import Hazards
 from web_console.lease import BUSY, DriveLease
-from web_console.map_image import grid_to_png, map_header
+from web_console.map_image import crop_known, grid_to_png, map_header
 from web_console.params import WebConsoleParams
 from web_console.protocol import (
     MAP,
@@ -51,6 +51,7 @@ from web_console.protocol import (
 WARN_PERIOD_S = 5.0  # throttle of repeated warnings [s]
 TORNADO_MAX_MESSAGE_BYTES = 65536  # beyond this tornado closes the socket (1009)
 MAX_PATH_POINTS = 200  # the plan sent to pages is thinned to this many points
+MAP_MARGIN_M = 1.0  # pages get the map's known part and this much around it
 GOAL_STATES = {GoalStatus.PENDING: "pending", GoalStatus.ACTIVE: "active",
                GoalStatus.PREEMPTED: "cancelled", GoalStatus.SUCCEEDED: "reached",
                GoalStatus.ABORTED: "failed", GoalStatus.REJECTED: "rejected",
@@ -344,9 +345,10 @@ class WebConsoleNode:
         if key == self.map_key:
             return
         self.map_key = key
-        header = map_header(info)
+        part, shown = crop_known(grid, info, int(round(MAP_MARGIN_M / info.resolution)))
+        header = map_header(shown)
         header["frame"] = msg.header.frame_id
-        data = binary_frame(MAP, header, grid_to_png(grid))
+        data = binary_frame(MAP, header, grid_to_png(part))
         with self.lock:
             self.map_bounds = info.bounds
         self._call(self.hub.on_map, data)
