@@ -15,6 +15,8 @@ import time
 import unittest
 from xmlrpc.client import ServerProxy
 
+import cv2
+import numpy as np
 import rosgraph
 import rospy
 import rostest
@@ -244,6 +246,20 @@ class WebConsoleTest(unittest.TestCase):
         page.send({"type": "cancel"})
         status = page.wait(lambda c: [m for m in c.messages("status") if m["goal"]], 3.0)
         self.assertAlmostEqual(status[-1]["goal"]["x"], 3.0)
+
+    def test_7_map_reaches_a_new_page_as_png(self):
+        page = self.page(auth=False)
+        maps = page.wait(lambda c: [f for f in c.frames if f[1] == b"M"], 5.0)
+        self.assertTrue(maps, "no map sent to a new page")
+        _, _, header, png = maps[-1]
+        # the test's map: 100 x 50 cells of 0.1 m from (-2, -1), every cell known
+        self.assertEqual((header["width"], header["height"]), (100, 50))
+        self.assertAlmostEqual(header["origin_x"], -2.0)
+        self.assertAlmostEqual(header["origin_y"], -1.0)
+        self.assertAlmostEqual(header["resolution"], 0.1)
+        image = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
+        self.assertEqual(image.shape, (50, 100))
+        self.assertTrue((image == 254).all(), "free cells are not white")
 
 
 if __name__ == "__main__":
