@@ -13,7 +13,15 @@ centre, plus unknown unvisited rooms), then times
     cells, BFS grouping), best of --repeat runs, file I/O excluded.
 Prints one line per size and the ratio. Needs g++ on the PATH.
 
+Then, on the shared reference (`--reference-dir`, default $ASCC_FRONTIER_BASELINE or
+../shared/bench/frontier_baseline from the repository's top level; skipped with a message
+if absent), exactly as its README says: `bfs_frontiers.cpp` built with `g++ -O2`, its
+`make_map.py` grid of --reference-size cells (4000), `to_mapserver.py`'s YAML + PGM loaded
+with ascc_common.map_io.load_map, the same robot cell; best of --repeat for both, in the
+same run, and the ratio ours / C++ (the issue's figure: under 0.5 is the goal).
+
     rosrun ascc_eval bench_frontiers.py [--sizes 1000 4000] [--repeat 5]
+        [--only synthetic|reference] [--reference-dir DIR] [--reference-size 4000]
 """
 
 import argparse
@@ -27,6 +35,7 @@ import time
 import numpy as np
 
 from ascc_common.grid import GridInfo
+from ascc_common.map_io import load_map
 from frontier_detector.goal_selection import PlannerParams, plan
 from frontier_detector.synthetic import first_free_cell_near, office_building, partially_explored
 
@@ -89,6 +98,68 @@ def time_cpp(exe: str, tmp: str, grid, robot, repeat: int):
     return float(fields["best_ms"]), int(fields["frontiers"]), int(fields["cells"])
 
 
+def default_reference_dir() -> str:
+    """$ASCC_FRONTIER_BASELINE, else ../shared/bench/frontier_baseline from the repository's
+    top level (this script is ascc_ros_pkg/ascc_eval/scripts/ in it)."""
+    env = os.environ.get("ASCC_FRONTIER_BASELINE")
+    if env:
+        return env
+    top = os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "..")
+    return os.path.normpath(os.path.join(top, "..", "shared", "bench", "frontier_baseline"))
+
+
+def _run(cmd, cwd: str) -> str:
+    return subprocess.run(cmd, cwd=cwd, check=True, capture_output=True, text=True).stdout
+
+
+def reference(ref_dir: str, n: int, repeat: int, params: PlannerParams) -> int:
+    """The shared reference's steps (its README), then ours on its map_server files."""
+    need = ("bfs_frontiers.cpp", "make_map.py", "to_mapserver.py")
+    missing = [f for f in need if not os.path.isfile(os.path.join(ref_dir, f))]
+    if missing:
+        print(f"reference: skipped, {ref_dir} has no {', '.join(missing)} "
+              "(set --reference-dir or $ASCC_FRONTIER_BASELINE)")
+        return 0
+    if shutil.which("g++") is None:
+        print("reference: skipped, g++ not found on PATH")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = os.path.join(tmp, "bfs")
+        _run(["g++", "-O2", "-o", exe, "bfs_frontiers.cpp"], ref_dir)
+        raw = os.path.join(tmp, f"map{n}.raw")
+        w, h, rx, ry = (int(v) for v in _run([sys.executable, "make_map.py", raw, str(n)],
+                                             ref_dir).split())
+        base = os.path.join(tmp, f"office{n}")
+        x, y = (float(v) for v in _run([sys.executable, "to_mapserver.py", raw, str(n), base,
+                                        str(rx)], ref_dir).split())
+        grid, info = load_map(base + ".yaml")
+        col, row = info.world_to_cell(x, y)
+        if (row, col) != (ry, rx):
+            print(f"reference: robot ({x}, {y}) m is cell (row {row}, col {col}), "
+                  f"not the reference's ({ry}, {rx})")
+            return 1
+        # Interleaved, so that both see the same machine load.
+        cpp_ms, ours_ms, result, cpp_out = float("inf"), float("inf"), None, ""
+        for _ in range(repeat):
+            cpp_out = _run([exe, raw, str(w), str(h), str(rx), str(ry), "1"], tmp)
+            cpp_ms = min(cpp_ms, float(dict(kv.split("=") for kv in cpp_out.split())["best_ms"]))
+            t0 = time.perf_counter()
+            res = plan(grid, info, (x, y), params)
+            wall = (time.perf_counter() - t0) * 1e3
+            if wall < ours_ms:
+                ours_ms, result = wall, res
+    t = result.timings_ms
+    known = 100.0 * float(np.count_nonzero(grid != -1)) / grid.size
+    print(f"reference {ref_dir}: {n} x {n} cells at {info.resolution} m, {known:.1f} % known, "
+          f"robot at ({x:.3f}, {y:.3f}) m, best of {repeat} (interleaved)")
+    print(f"  C++ bfs_frontiers -O2: {cpp_ms:8.1f} ms   ({cpp_out.strip()})")
+    print(f"  ours plan():           {ours_ms:8.1f} ms   (phase1 {t['phase1']:.1f}, phase2 "
+          f"{t['phase2']:.1f}, phase3 {t['phase3']:.1f}, utility {t['utility']:.1f}; "
+          f"{result.frontiers.n_candidates} candidates, status {result.status})")
+    print(f"  ratio ours / C++:      {ours_ms / cpp_ms:8.2f}")
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 2000, 3000, 4000])
@@ -96,8 +167,22 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--explored", type=float, default=0.8,
                     help="radius of the explored disc as a fraction of half the map side")
+    ap.add_argument("--only", choices=("synthetic", "reference"),
+                    help="run only the synthetic sizes or only the shared reference")
+    ap.add_argument("--reference-dir", default=default_reference_dir(),
+                    help="the shared C++ reference (default: %(default)s)")
+    ap.add_argument("--reference-size", type=int, default=4000,
+                    help="map side [cells] given to the reference's make_map.py")
     args = ap.parse_args()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cores {os.cpu_count()}")
+    if args.only != "reference":
+        synthetic(args)
+    if args.only != "synthetic":
+        return reference(args.reference_dir, args.reference_size, args.repeat, PlannerParams())
+    return 0
+
+
+def synthetic(args) -> None:
     print("   N  side_m  known%  p1_ms  p2_ms  p3_ms  util_ms  total_ms  wall_ms  "
           "cand  |  cpp_bfs_ms  cpp_frontiers  |  cpp/py")
     with tempfile.TemporaryDirectory() as tmp:
@@ -112,7 +197,6 @@ def main() -> int:
                   f"{t['phase2']:6.1f} {t['phase3']:6.1f} {t['utility']:8.1f} "
                   f"{t['total']:9.1f} {wall:8.1f} {res.frontiers.n_candidates:5d}  |  "
                   f"{cpp_ms:10.1f} {cpp_fr:14d}  |  {cpp_ms / t['total']:6.2f}")
-    return 0
 
 
 if __name__ == "__main__":
