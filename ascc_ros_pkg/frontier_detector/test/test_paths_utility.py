@@ -1,5 +1,6 @@
 """Unit tests of path lengths, the utility terms, scenario detection and goal selection."""
 
+import heapq
 import math
 
 import numpy as np
@@ -8,7 +9,7 @@ import pytest
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from frontier_detector.frontiers import FrontierParams, traversable_mask
 from frontier_detector.goal_selection import STATUS_ALL_BLACKLISTED, PlannerParams, plan
-from frontier_detector.paths import block_size, build_graph, path_lengths
+from frontier_detector.paths import DC, DR, MOVES, block_size, build_graph, path_lengths
 from frontier_detector.scenario import CORRIDOR, ROOM, ScenarioParams, classify
 from frontier_detector.utility import (
     UtilityParams,
@@ -24,6 +25,66 @@ def lengths(grid, start_rc, k):
     trav = traversable_mask(grid, 0.0)
     g = build_graph(trav, k)
     return g, path_lengths(g, g.node(*start_rc), RES)
+
+
+def _reference_lengths(graph, start):
+    """Independent reference: Dijkstra on (steps, length) keys, one node at a time; the
+    length is summed in float32 like path_lengths, so the two must agree exactly."""
+    step = [np.float32(1.0)] * 4 + [np.float32(math.sqrt(2))] * 4
+    best = {start: (0, np.float32(0.0))}
+    heap = [(0, np.float32(0.0), start)]
+    done = set()
+    while heap:
+        s, length, node = heapq.heappop(heap)
+        if node in done:
+            continue
+        done.add(node)
+        for d in range(8):
+            if not MOVES[graph.allow[node], d]:
+                continue
+            nb = node + int(DR[d]) * graph.shape[1] + int(DC[d])
+            key = (s + 1, np.float32(length + step[d]))
+            if nb not in best or key < best[nb]:
+                best[nb] = key
+                heapq.heappush(heap, (key[0], key[1], nb))
+    out = np.full(graph.allow.size, np.inf, np.float32)
+    for node, (_, length) in best.items():
+        out[node] = length
+    return out * np.float32(graph.k * RES)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_path_lengths_equal_a_lexicographic_dijkstra_on_random_maps(seed):
+    """The vectorised breadth-first search (fewest steps, then shortest) against a plain
+    reference on random cluttered masks, block sizes 1..5."""
+    rng = np.random.default_rng(seed)
+    h, w = (int(v) for v in rng.integers(30, 90, 2))
+    k = int(rng.integers(1, 6))
+    h, w = h - h % k + k, w - w % k + k
+    grid = np.zeros((h, w), np.int8)
+    grid[rng.random((h, w)) < 0.08] = OCCUPIED
+    for _ in range(4):
+        r, c = int(rng.integers(0, h)), int(rng.integers(0, w))
+        grid[r, : int(rng.integers(0, w))] = OCCUPIED
+        grid[: int(rng.integers(0, h)), c] = OCCUPIED
+    grid[h // 2 - 2 * k: h // 2 + 2 * k, w // 2 - 2 * k: w // 2 + 2 * k] = FREE
+    trav = traversable_mask(grid, 0.0)
+    g = build_graph(trav, k)
+    start = g.node(h // 2, w // 2)
+    got = path_lengths(g, start, RES)
+    want = _reference_lengths(g, start)
+    assert np.isfinite(got).sum() > 10
+    np.testing.assert_array_equal(got, want)
+
+
+def test_build_graph_same_for_uint8_and_bool_masks():
+    """build_graph's OpenCV reduction (uint8) and numpy's (other dtypes) give one graph."""
+    rng = np.random.default_rng(3)
+    trav = np.where(rng.random((60, 75)) < 0.7, 255, 0).astype(np.uint8)
+    a = build_graph(trav, 5)
+    b = build_graph(trav > 0, 5)
+    np.testing.assert_array_equal(a.allow, b.allow)
+    assert a.allow.any()
 
 
 def test_block_size_is_capped_by_clearance():

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 from typing import Tuple
 
+import cv2
 import numpy as np
 
 # Public (ascc_eval.offline walks the same graph): DR, DC are the row and column steps of
@@ -31,6 +32,8 @@ _STEP = np.array([1.0, 1.0, 1.0, 1.0, math.sqrt(2), math.sqrt(2), math.sqrt(2), 
                  dtype=np.float32)
 # MOVES[allow byte] -> the 8 booleans of its bits (move d allowed), shape (256, 8).
 MOVES = ((np.arange(256)[:, None] >> np.arange(8)[None, :]) & 1).astype(bool)
+_MOVES_T = np.ascontiguousarray(MOVES.T)
+_STEP_COL = _STEP[:, None]
 
 
 def block_size(resolution: float, clearance_m: float, path_resolution_m: float) -> int:
@@ -75,7 +78,7 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
     sp = np.zeros((hc + 2, wc + 2), bool)
     if hc > 1:
         cross = t[k - 1: h - 1: k, :] & t[k:: k, :]
-        sp[1:-2, 1:-1] = cross.reshape(hc - 1, wc, k).max(axis=2) > 0
+        sp[1:-2, 1:-1] = _row_max(cross.reshape(-1, k)).reshape(hc - 1, wc) > 0
     # Padding by one block on every side keeps neighbour indices from wrapping around.
     west = _shift(ep, 0, -1)
     north = _shift(sp, -1, 0)
@@ -88,6 +91,14 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
     for bit, m in enumerate((ep, west, sp, north, se, sw, ne, nw)):
         allow |= m.astype(np.uint8) << np.uint8(bit)
     return CoarseGraph(k, (hc + 2, wc + 2), allow.ravel())
+
+
+def _row_max(a: np.ndarray) -> np.ndarray:
+    """Maximum of each row of a 2-D array (OpenCV's reduce for uint8: numpy's max over a
+    short last axis is several times slower)."""
+    if a.dtype == np.uint8 and a.shape[0] > 0:
+        return cv2.reduce(a, 1, cv2.REDUCE_MAX)[:, 0]
+    return a.max(axis=1)
 
 
 def _shift(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
@@ -105,21 +116,25 @@ def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.n
     The start block is taken as passable (the caller checked the robot's cell).
     """
     n = graph.allow.size
+    allow = graph.allow
     steps = np.full(n, np.inf, dtype=np.float32)
-    offsets = (DR * graph.shape[1] + DC).astype(np.int64)
+    offsets = (DR * graph.shape[1] + DC).astype(np.int64)[:, None]
     stamp = np.zeros(n, dtype=np.int64)
     order = np.arange(n, dtype=np.int64)
     steps[start_node] = 0.0
     front = np.array([start_node], dtype=np.int64)
-    while front.size:
-        ok = MOVES[graph.allow[front]]                        # (F, 8) allowed moves
-        nb = (front[:, None] + offsets)[ok]
-        new = np.isinf(steps[nb])
+    while True:
+        # Moves as (8, F): the boolean selections below then run over contiguous rows.
+        ok = _MOVES_T[:, allow[front]]
+        nb = (front + offsets)[ok]
+        length = (steps[front] + _STEP_COL)[ok]
+        new = steps[nb] == np.inf
         nb = nb[new]
         if nb.size == 0:
             break
         # Several parents on this level may reach a block: keep the shortest length.
-        np.minimum.at(steps, nb, (steps[front][:, None] + _STEP)[ok][new])
-        stamp[nb] = order[: nb.size]                          # de-duplicate without sorting
-        front = nb[stamp[nb] == order[: nb.size]]
+        np.minimum.at(steps, nb, length[new])
+        first = order[: nb.size]
+        stamp[nb] = first                                     # de-duplicate without sorting
+        front = nb[stamp[nb] == first]
     return steps * np.float32(graph.k * resolution)
