@@ -110,14 +110,22 @@ def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.nd
     n_steps = dr.shape[1]
     # Flat indices into a grid padded by n_steps + 1 cells of an "off the map" value, so one
     # gather serves candidates near the edge too. Only the candidates' bounding box is padded.
+    # When every ray stays inside the grid (candidates at least n_steps from its edges, the
+    # usual case), the grid itself is indexed and nothing is copied.
     pad = n_steps + 1
-    b_r0, b_c0 = max(0, int(rows.min()) - pad), max(0, int(cols.min()) - pad)
-    b_r1, b_c1 = min(h, int(rows.max()) + pad + 1), min(w, int(cols.max()) + pad + 1)
     off_map = np.int8(-2)
-    local = np.full((b_r1 - b_r0 + 2 * pad, b_c1 - b_c0 + 2 * pad), off_map, np.int8)
-    local[pad: pad + b_r1 - b_r0, pad: pad + b_c1 - b_c0] = grid[b_r0:b_r1, b_c0:b_c1]
-    lw = local.shape[1]
-    base = (rows - b_r0 + pad) * lw + (cols - b_c0 + pad)
+    if (rows.min() >= pad and cols.min() >= pad and rows.max() < h - pad
+            and cols.max() < w - pad):
+        local = np.ascontiguousarray(grid, dtype=np.int8)
+        lw = w
+        base = rows * lw + cols
+    else:
+        b_r0, b_c0 = max(0, int(rows.min()) - pad), max(0, int(cols.min()) - pad)
+        b_r1, b_c1 = min(h, int(rows.max()) + pad + 1), min(w, int(cols.max()) + pad + 1)
+        local = np.full((b_r1 - b_r0 + 2 * pad, b_c1 - b_c0 + 2 * pad), off_map, np.int8)
+        local[pad: pad + b_r1 - b_r0, pad: pad + b_c1 - b_c0] = grid[b_r0:b_r1, b_c0:b_c1]
+        lw = local.shape[1]
+        base = (rows - b_r0 + pad) * lw + (cols - b_c0 + pad)
     vals = local.ravel()[base[:, None, None] + (dr * lw + dc)[None]]      # (C, R, S)
     stop = (vals == OCCUPIED) | (vals == off_map)
     unknown = vals == UNKNOWN
