@@ -288,6 +288,20 @@ def write_coverage_plot(path: str, runs: Dict[str, Tuple[Sequence[float], Sequen
     plt.close(fig)
 
 
+def resample(grid: np.ndarray, info: GridInfo, target: GridInfo,
+             shape: Tuple[int, int]) -> np.ndarray:
+    """`grid` (on `info`) looked up at the centres of the cells of another grid (`target`,
+    `shape`; both infos in one frame): nearest cell, UNKNOWN outside."""
+    rows, cols = np.indices(shape)
+    x, y = target.cell_to_world(cols.ravel(), rows.ravel())
+    ex, ey = info.world_to_cell(x, y)
+    h, w = grid.shape
+    inside = (ey >= 0) & (ey < h) & (ex >= 0) & (ex < w)
+    img = np.full(rows.size, UNKNOWN, np.int8)
+    img[inside] = grid[ey[inside], ex[inside]]
+    return img.reshape(shape)
+
+
 def compose(pose: Tuple[float, float, float], info: GridInfo) -> GridInfo:
     """`info` (a map's geometry in its own frame) expressed in a parent frame in which that
     frame sits at pose = (x, y, yaw). E.g. gmapping's map frame inside the simulator's."""
@@ -411,14 +425,8 @@ class ExplorationRecord:
             # Draw the explored map resampled into the truth's grid.
             grid, info = self.last_map
             save_map(base + "_explored.yaml", grid, info)
-            rows, cols = np.indices(self.truth.shape)
-            x, y = self.truth_info.cell_to_world(cols.ravel(), rows.ravel())
-            ex, ey = info.world_to_cell(x, y)
-            h, w = grid.shape
-            inside = (ey >= 0) & (ey < h) & (ex >= 0) & (ex < w)
-            img = np.full(self.truth.size, UNKNOWN, np.int8)
-            img[inside] = grid[ey[inside], ex[inside]]
-            write_map_png(base + "_map.png", img.reshape(self.truth.shape), self.truth_info,
+            img = resample(grid, info, self.truth_info, self.truth.shape)
+            write_map_png(base + "_map.png", img, self.truth_info,
                           self.poses, self.goals, robot_xy=self.poses[-1] if self.poses
                           else None, title=f"{self.label}: {s['path_m']:.1f} m, "
                           f"{100 * float(s['final_coverage']):.1f} %")

@@ -1,0 +1,382 @@
+"""Map quality against a world's floor plan, as the thesis reports it (2.5.2, figs. 2.11-2.12).
+
+    rosrun ascc_eval map_quality MAP.yaml --world WORLD.yaml [--map-pose X Y YAW]
+        [--png OUT.png] [--json OUT.json]
+
+MAP.yaml is a saved map (map_server format: ``rosrun map_server map_saver``, or a
+benchmark's ``*_explored.yaml``); WORLD.yaml an ascc_sim world, whose map is the floor
+plan (walls and built-in obstacles; furniture is not part of it). ``--map-pose`` is the
+pose of the map's frame in the world's frame; by default the world's first robot's start
+pose (a mapper started with the robot: gmapping's map frame = odom at start). Use
+``--map-pose 0 0 0`` for maps already in the world's frame (``*_explored.yaml``).
+
+Prints:
+  * agreement: the map's known cells against the world's truth (walls, obstacles and
+    furniture), ``ascc_navigation.grid.map_agreement``;
+  * walls seen: the floor plan's wall faces (occupied cells with a free 4-neighbour) that
+    the map knows, and how many of those it marks occupied: at the cell, and within
+    ``wall_tolerance_cells``;
+  * sides: the outline of the free space connected to the start (outer boundary and
+    holes, e.g. the corridor loop's outer and inner walls), simplified to a polygon
+    (``cv2.approxPolyDP``, recesses shallower than ``side_epsilon_m`` ignored; edges
+    shorter than ``min_side_m`` dropped). Along each polygon edge a line is fitted to the
+    wall faces within ``band_m`` of it, on the floor plan and on the map alike (total least
+    squares, refitted on the cells within ``inlier_m`` of the fit; the edge's ends, where
+    the next wall starts, are left out). A side's length runs between the intersections
+    with its neighbours' lines, on both; so do the corner angles (interior angle of the
+    outline, degrees);
+  * and writes a PNG of the map over the floor plan: plan walls grey, map occupied red,
+    map free light blue, fitted sides (plan green, map blue), corners.
+
+No ROS import (the command runs without a master).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+
+from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
+from ascc_common.map_io import MapError, load_map
+from ascc_common.params import param
+from ascc_navigation.grid import map_agreement
+
+from .report import compose, reachable_area, resample
+
+
+@dataclass
+class QualityParams:
+    """Outline simplification and line fitting (``ascc_common.params``)."""
+
+    side_epsilon_m: float = param(0.4, "[m] outline simplification: recesses shallower "
+                                  "than this are not sides")
+    min_side_m: float = param(2.0, "[m] outline edges shorter than this are not sides")
+    band_m: float = param(1.0, "[m] wall faces within this of a side are fitted to it")
+    inlier_m: float = param(0.15, "[m] refit on the faces within this of the first fit")
+    end_margin_m: float = param(0.5, "[m] a side's ends left out of its fit (corners)")
+    min_points: int = param(20, "fewer faces than this: side not measured")
+    wall_tolerance_cells: int = param(1, "wall faces also count within this many cells")
+
+
+@dataclass
+class Line:
+    """A fitted line: a point on it and its unit direction, world metres."""
+
+    point: np.ndarray
+    direction: np.ndarray
+    n_points: int = 0
+    rms_m: float = 0.0
+
+    def intersect(self, other: Line) -> Optional[np.ndarray]:
+        d1, d2 = self.direction, other.direction
+        den = d1[0] * d2[1] - d1[1] * d2[0]
+        if abs(den) < 1e-9:
+            return None
+        diff = other.point - self.point
+        t = (diff[0] * d2[1] - diff[1] * d2[0]) / den
+        return self.point + t * d1
+
+
+@dataclass
+class Outline:
+    """One closed boundary of the free space: polygon vertices (world m) and, per edge
+    i (vertex i -> i + 1), the plan's and the map's fitted lines (None: not measured)."""
+
+    vertices: np.ndarray
+    plan_lines: List[Optional[Line]] = field(default_factory=list)
+    map_lines: List[Optional[Line]] = field(default_factory=list)
+
+    def corners(self, lines: Sequence[Optional[Line]]) -> List[Optional[np.ndarray]]:
+        """Corner k joins side k - 1 and side k."""
+        n = len(lines)
+        out = []
+        for k in range(n):
+            a, b = lines[k - 1], lines[k]
+            out.append(None if a is None or b is None else a.intersect(b))
+        return out
+
+    def side_lengths(self, lines: Sequence[Optional[Line]]) -> List[Optional[float]]:
+        c = self.corners(lines)
+        n = len(lines)
+        return [None if c[k] is None or c[(k + 1) % n] is None
+                else float(np.hypot(*(c[(k + 1) % n] - c[k]))) for k in range(n)]
+
+    def corner_angles_deg(self, lines: Sequence[Optional[Line]]) -> List[Optional[float]]:
+        """Interior angle at corner k, from the turn between sides k - 1 and k (the lines'
+        directions follow the outline)."""
+        out = []
+        sign = 1.0 if _signed_area(self.vertices) > 0 else -1.0
+        for k in range(len(lines)):
+            a, b = lines[k - 1], lines[k]
+            if a is None or b is None:
+                out.append(None)
+                continue
+            turn = math.atan2(a.direction[0] * b.direction[1] - a.direction[1] * b.direction[0],
+                              float(a.direction @ b.direction))
+            out.append(180.0 - sign * math.degrees(turn))
+        return out
+
+
+def _signed_area(v: np.ndarray) -> float:
+    x, y = v[:, 0], v[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def wall_faces(grid: np.ndarray) -> np.ndarray:
+    """Boolean mask: OCCUPIED cells with a FREE 4-neighbour (the faces a laser sees)."""
+    free = (grid == FREE).astype(np.uint8)
+    cross = np.array([[0, 1, 0], [1, 0, 1], [0, 1, 0]], np.uint8)
+    near_free = cv2.dilate(free, cross, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return (grid == OCCUPIED) & (near_free > 0)
+
+
+def face_points(grid: np.ndarray, info: GridInfo) -> np.ndarray:
+    """(N, 2) world positions [m] of a grid's wall-face cell centres."""
+    rows, cols = np.nonzero(wall_faces(grid))
+    x, y = info.cell_to_world(cols, rows)
+    return np.stack([np.atleast_1d(x), np.atleast_1d(y)], axis=1)
+
+
+def outlines(plan: np.ndarray, info: GridInfo, start_xy: Tuple[float, float],
+             p: QualityParams) -> List[Outline]:
+    """The boundaries of the plan's free space connected to start_xy, as polygons whose
+    edges are at least min_side_m long (world metres)."""
+    reach = reachable_area(plan, info, start_xy, clearance_m=0.0).astype(np.uint8)
+    found = cv2.findContours(reach, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    contours = found[-2]
+    out = []
+    for c in contours:
+        approx = cv2.approxPolyDP(c, p.side_epsilon_m / info.resolution, True)[:, 0, :]
+        x, y = info.cell_to_world(approx[:, 0], approx[:, 1])
+        v = np.stack([np.atleast_1d(x), np.atleast_1d(y)], axis=1)
+        v = _drop_short_edges(v, p.min_side_m)
+        if v.shape[0] >= 3:
+            out.append(Outline(v))
+    return out
+
+
+def _drop_short_edges(v: np.ndarray, min_len: float) -> np.ndarray:
+    """Remove edges shorter than min_len: the vertex pair is replaced by the intersection
+    of the neighbouring edges' lines (or their midpoint if parallel), until none is left."""
+    v = v.copy()
+    while v.shape[0] >= 3:
+        n = v.shape[0]
+        lens = np.hypot(*(np.roll(v, -1, axis=0) - v).T)
+        k = int(np.argmin(lens))
+        if lens[k] >= min_len:
+            break
+        a0, a1 = v[k - 1], v[k]                      # edge before
+        b0, b1 = v[(k + 1) % n], v[(k + 2) % n]      # edge after
+        pa = Line(a0, (a1 - a0) / max(np.hypot(*(a1 - a0)), 1e-9))
+        pb = Line(b0, (b1 - b0) / max(np.hypot(*(b1 - b0)), 1e-9))
+        x = pa.intersect(pb)
+        if x is None or np.hypot(*(x - 0.5 * (a1 + b0))) > 2.0 * min_len:
+            x = 0.5 * (a1 + b0)
+        keep = [i for i in range(n) if i not in (k, (k + 1) % n)]
+        insert = keep.index(k - 1 if k > 0 else n - 1) + 1
+        v = np.insert(v[keep], insert, x, axis=0)
+    return v
+
+
+def fit_side(points: np.ndarray, a: np.ndarray, b: np.ndarray, p: QualityParams
+             ) -> Optional[Line]:
+    """Line through the wall faces along segment a -> b (direction kept from a to b)."""
+    length = float(np.hypot(*(b - a)))
+    if length <= 2.0 * p.end_margin_m:
+        return None
+    u = (b - a) / length
+    line = Line(a.astype(float), u)
+    band = p.band_m
+    sel = np.zeros(0, bool)
+    for _ in range(4):
+        rel = points - line.point
+        t = rel @ line.direction + (line.point - a) @ line.direction
+        d = rel @ np.array([-line.direction[1], line.direction[0]])
+        sel = (np.abs(d) <= band) & (t >= p.end_margin_m) & (t <= length - p.end_margin_m)
+        if int(sel.sum()) < p.min_points:
+            return None
+        pts = points[sel]
+        centre = pts.mean(axis=0)
+        _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
+        direction = vt[0] if float(vt[0] @ u) >= 0.0 else -vt[0]
+        line = Line(centre, direction)
+        band = p.inlier_m
+    normal = np.array([-line.direction[1], line.direction[0]])
+    resid = (points[sel] - line.point) @ normal
+    return Line(line.point, line.direction, int(sel.sum()), float(np.sqrt(np.mean(resid ** 2))))
+
+
+def wall_agreement(plan: np.ndarray, plan_info: GridInfo, grid: np.ndarray,
+                   map_info: GridInfo, tolerance_cells: int) -> Dict[str, float]:
+    """The plan's wall faces the map knows (`seen`), and of those the fraction the map
+    marks OCCUPIED at the face (`exact`) and within tolerance_cells (`within`).
+    map_info must be in the plan's frame."""
+    rows, cols = np.nonzero(wall_faces(plan))
+    x, y = plan_info.cell_to_world(cols, rows)
+    mx, my = map_info.world_to_cell(np.atleast_1d(x), np.atleast_1d(y))
+    h, w = grid.shape
+    inside = (mx >= 0) & (mx < w) & (my >= 0) & (my < h)
+    vals = np.full(rows.size, UNKNOWN, np.int8)
+    vals[inside] = grid[my[inside], mx[inside]]
+    occ = (grid == OCCUPIED).astype(np.uint8)
+    size = 2 * max(0, tolerance_cells) + 1
+    occ_near = cv2.dilate(occ, np.ones((size, size), np.uint8))
+    known = (grid != UNKNOWN).astype(np.uint8)
+    known_near = cv2.dilate(known, np.ones((size, size), np.uint8))
+    seen = np.zeros(rows.size, bool)
+    seen[inside] = known_near[my[inside], mx[inside]] > 0
+    within = np.zeros(rows.size, bool)
+    within[inside] = occ_near[my[inside], mx[inside]] > 0
+    n_seen = int(seen.sum())
+    return {"faces": int(rows.size), "seen": n_seen,
+            "seen_fraction": n_seen / rows.size if rows.size else float("nan"),
+            "exact": float((seen & (vals == OCCUPIED)).sum()) / n_seen if n_seen else float("nan"),
+            "within": float((seen & within).sum()) / n_seen if n_seen else float("nan")}
+
+
+@dataclass
+class Quality:
+    agreement: Dict[str, float]
+    walls: Dict[str, float]
+    outlines: List[Outline]
+
+    def sides(self) -> List[Dict[str, object]]:
+        rows = []
+        for i, o in enumerate(self.outlines):
+            lp, lm = o.side_lengths(o.plan_lines), o.side_lengths(o.map_lines)
+            ap, am = o.corner_angles_deg(o.plan_lines), o.corner_angles_deg(o.map_lines)
+            for k in range(len(o.plan_lines)):
+                rows.append({"outline": i, "side": k, "plan_m": lp[k], "map_m": lm[k],
+                             "corner": k, "plan_deg": ap[k], "map_deg": am[k]})
+        return rows
+
+
+def measure(grid: np.ndarray, info: GridInfo, plan: np.ndarray, plan_info: GridInfo,
+            truth: np.ndarray, start_xy: Tuple[float, float],
+            map_pose: Tuple[float, float, float] = (0.0, 0.0, 0.0),
+            params: Optional[QualityParams] = None) -> Quality:
+    """All numbers for a map (grid, info in its own frame at map_pose in the plan's frame)."""
+    p = params or QualityParams()
+    minfo = compose(map_pose, info)
+    agreement = map_agreement(grid, info, truth, plan_info, map_pose)
+    walls = wall_agreement(plan, plan_info, grid, minfo, p.wall_tolerance_cells)
+    plan_pts = face_points(plan, plan_info)
+    map_pts = face_points(grid, minfo)
+    outs = outlines(plan, plan_info, start_xy, p)
+    for o in outs:
+        n = o.vertices.shape[0]
+        for k in range(n):
+            a, b = o.vertices[k], o.vertices[(k + 1) % n]
+            o.plan_lines.append(fit_side(plan_pts, a, b, p))
+            o.map_lines.append(fit_side(map_pts, a, b, p))
+    return Quality(agreement, walls, outs)
+
+
+def _fmt(v: Optional[float], spec: str) -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def report_lines(q: Quality) -> List[str]:
+    a, w = q.agreement, q.walls
+    lines = [f"agreement: {100 * a['accuracy']:.1f} % of {a['known']} known cells "
+             f"(free {100 * a['free_accuracy']:.1f} %, occupied "
+             f"{100 * a['occupied_accuracy']:.1f} %, {a['unmatched']} off the truth)",
+             f"walls seen: {w['seen']} of {w['faces']} wall-face cells "
+             f"({100 * w['seen_fraction']:.1f} %); occupied in the map: "
+             f"{100 * w['exact']:.1f} % at the cell, {100 * w['within']:.1f} % within tolerance",
+             "outline side   plan_m    map_m  diff_m  diff_%  | corner  plan_deg  map_deg  "
+             "diff_deg"]
+    for r in q.sides():
+        pm, mm, pd, md = r["plan_m"], r["map_m"], r["plan_deg"], r["map_deg"]
+        dm = None if pm is None or mm is None else mm - pm
+        dp = None if dm is None or not pm else 100.0 * dm / pm
+        dd = None if pd is None or md is None else md - pd
+        lines.append(f"{r['outline']:7d} {r['side']:4d} {_fmt(pm, '8.2f')} {_fmt(mm, '8.2f')} "
+                     f"{_fmt(dm, '7.2f')} {_fmt(dp, '7.2f')}  | {r['corner']:6d} "
+                     f"{_fmt(pd, '9.1f')} {_fmt(md, '8.1f')} {_fmt(dd, '9.2f')}")
+    return lines
+
+
+def write_overlay(path: str, q: Quality, grid: np.ndarray, info: GridInfo, plan: np.ndarray,
+                  plan_info: GridInfo, map_pose: Tuple[float, float, float],
+                  max_side_px: int = 2400) -> None:
+    """PNG of the map over the floor plan (north up), fitted sides and corners."""
+    on_plan = resample(grid, compose(map_pose, info), plan_info, plan.shape)
+    img = np.full(plan.shape + (3,), 215, np.uint8)                  # BGR, unknown
+    img[plan == FREE] = (255, 255, 255)
+    img[plan == OCCUPIED] = (110, 110, 110)
+    img[on_plan == FREE] = (250, 225, 200)
+    img[on_plan == OCCUPIED] = (30, 30, 220)
+    scale = min(1.0, max_side_px / max(plan.shape))
+    if scale < 1.0:
+        img = cv2.resize(img, (int(plan.shape[1] * scale), int(plan.shape[0] * scale)),
+                         interpolation=cv2.INTER_AREA)
+    img = np.ascontiguousarray(img[::-1])                             # row 0 = top
+
+    def px(xy: np.ndarray) -> Tuple[int, int]:
+        cx, cy = plan_info.world_to_cell(float(xy[0]), float(xy[1]))
+        return int(round(cx * scale)), int(round(img.shape[0] - 1 - cy * scale))
+
+    thick = max(1, int(round(2 * scale)))
+    for o in q.outlines:
+        for lines, colour in ((o.plan_lines, (40, 170, 40)), (o.map_lines, (200, 80, 0))):
+            corners = o.corners(lines)
+            n = len(lines)
+            for k in range(n):
+                a, b = corners[k], corners[(k + 1) % n]
+                if a is not None and b is not None:
+                    cv2.line(img, px(a), px(b), colour, thick, cv2.LINE_AA)
+            for c in corners:
+                if c is not None:
+                    cv2.circle(img, px(c), 3 * thick, colour, thick, cv2.LINE_AA)
+    if not cv2.imwrite(path, img):
+        raise OSError(f"cannot write {path}")
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    ap = argparse.ArgumentParser(prog="map_quality", description=__doc__.split("\n\n")[0])
+    ap.add_argument("map_yaml", help="the saved map (map_server YAML)")
+    ap.add_argument("--world", required=True, help="ascc_sim world YAML (floor plan + start)")
+    ap.add_argument("--map-pose", nargs=3, type=float, metavar=("X", "Y", "YAW"),
+                    help="pose of the map's frame in the world [m, m, rad] (default: the "
+                    "world's first robot's start pose)")
+    ap.add_argument("--png", help="overlay PNG (default: MAP_quality.png beside the map)")
+    ap.add_argument("--json", help="also write the numbers as JSON here")
+    args = ap.parse_args(argv)
+    from ascc_sim.world import WorldError, load_world  # ascc_sim: only for the command
+    try:
+        world = load_world(args.world)
+        grid, info = load_map(args.map_yaml)
+    except (WorldError, MapError, OSError) as e:
+        print(f"map_quality: {e}", file=sys.stderr)
+        return 2
+    start = world.robots[0].pose if world.robots else None
+    if args.map_pose is not None:
+        pose = tuple(args.map_pose)
+    elif start is not None:
+        pose = (start.x, start.y, start.yaw)
+    else:
+        pose = (0.0, 0.0, 0.0)
+    start_xy = (start.x, start.y) if start is not None else pose[:2]
+    plan, pinfo = world.map.occupancy, world.map.info
+    q = measure(grid, info, plan, pinfo, world.truth_map.occupancy, start_xy, pose)
+    print(f"map {args.map_yaml}: {grid.shape[1]} x {grid.shape[0]} cells at "
+          f"{info.resolution} m, frame at ({pose[0]:.3f}, {pose[1]:.3f}, {pose[2]:.4f}) in "
+          f"world {world.name}")
+    for line in report_lines(q):
+        print(line)
+    png = args.png or (args.map_yaml.rsplit(".", 1)[0] + "_quality.png")
+    write_overlay(png, q, grid, info, plan, pinfo, pose)
+    print(f"overlay: {png}")
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as f:
+            json.dump({"agreement": q.agreement, "walls": q.walls, "sides": q.sides()}, f,
+                      indent=1)
+    return 0
