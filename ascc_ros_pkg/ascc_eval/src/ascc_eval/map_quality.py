@@ -18,13 +18,13 @@ Prints:
     ``wall_tolerance_cells``;
   * sides: the outline of the free space connected to the start (outer boundary and
     holes, e.g. the corridor loop's outer and inner walls), simplified to a polygon
-    (``cv2.approxPolyDP``, recesses shallower than ``side_epsilon_m`` ignored; edges
-    shorter than ``min_side_m`` dropped). Along each polygon edge a line is fitted to the
-    wall faces within ``band_m`` of it, on the floor plan and on the map alike (total least
-    squares, refitted on the cells within ``inlier_m`` of the fit; the edge's ends, where
-    the next wall starts, are left out). A side's length runs between the intersections
-    with its neighbours' lines, on both; so do the corner angles (interior angle of the
-    outline, degrees);
+    (``cv2.approxPolyDP``, recesses and counters shallower than ``side_epsilon_m``
+    ignored; edges shorter than ``min_side_m`` dropped). Along each polygon edge a line is
+    fitted to the wall faces within ``band_m`` of it, on the floor plan and on the map
+    alike (RANSAC for the largest straight face within ``inlier_m``, then total least
+    squares; the edge's ends, where the next wall starts, are left out). A side's length
+    runs between the intersections with its neighbours' lines, on both; so do the corner
+    angles (interior angle of the outline, degrees);
   * and writes a PNG of the map over the floor plan: plan walls grey, map occupied red,
     map free light blue, fitted sides (plan green, map blue), corners.
 
@@ -55,7 +55,7 @@ from .report import compose, reachable_area, resample
 class QualityParams:
     """Outline simplification and line fitting (``ascc_common.params``)."""
 
-    side_epsilon_m: float = param(0.4, "[m] outline simplification: recesses shallower "
+    side_epsilon_m: float = param(0.7, "[m] outline simplification: recesses shallower "
                                   "than this are not sides")
     min_side_m: float = param(2.0, "[m] outline edges shorter than this are not sides")
     band_m: float = param(1.0, "[m] wall faces within this of a side are fitted to it")
@@ -185,32 +185,55 @@ def _drop_short_edges(v: np.ndarray, min_len: float) -> np.ndarray:
     return v
 
 
-def fit_side(points: np.ndarray, a: np.ndarray, b: np.ndarray, p: QualityParams
-             ) -> Optional[Line]:
-    """Line through the wall faces along segment a -> b (direction kept from a to b)."""
+def fit_side(points: np.ndarray, a: np.ndarray, b: np.ndarray, p: QualityParams,
+             ransac_tries: int = 300) -> Optional[Line]:
+    """Line through the wall faces along segment a -> b (direction kept from a to b).
+
+    The faces within band_m of the segment (its ends left out) go into a RANSAC (pairs of
+    faces, lines within 20 deg of the segment, the most faces within inlier_m wins; seeded,
+    so repeatable), then total least squares on that line's inliers, twice. The largest
+    straight face wins over a counter or a pillar in front of the wall.
+    """
     length = float(np.hypot(*(b - a)))
     if length <= 2.0 * p.end_margin_m:
         return None
     u = (b - a) / length
-    line = Line(a.astype(float), u)
-    band = p.band_m
-    sel = np.zeros(0, bool)
-    for _ in range(4):
-        rel = points - line.point
-        t = rel @ line.direction + (line.point - a) @ line.direction
-        d = rel @ np.array([-line.direction[1], line.direction[0]])
-        sel = (np.abs(d) <= band) & (t >= p.end_margin_m) & (t <= length - p.end_margin_m)
-        if int(sel.sum()) < p.min_points:
+    normal = np.array([-u[1], u[0]])
+    rel = points - a
+    t, d = rel @ u, rel @ normal
+    sel = (np.abs(d) <= p.band_m) & (t >= p.end_margin_m) & (t <= length - p.end_margin_m)
+    pts = points[sel]
+    if pts.shape[0] < p.min_points:
+        return None
+    rng = np.random.default_rng(0)
+    i, j = rng.integers(0, pts.shape[0], (2, ransac_tries))
+    dirs = pts[j] - pts[i]
+    norm = np.hypot(dirs[:, 0], dirs[:, 1])
+    ok = (norm > 1e-9)
+    ok[ok] = np.abs(dirs[ok] @ u) / norm[ok] >= math.cos(math.radians(20.0))
+    if not ok.any():
+        return None
+    i, dirs, norm = i[ok], dirs[ok], norm[ok]
+    nrm = np.stack([-dirs[:, 1], dirs[:, 0]], axis=1) / norm[:, None]
+    # distance of every face to every sampled line: |n_k . (p - p_k)|
+    dist = np.abs(pts @ nrm.T - np.einsum("kj,kj->k", nrm, pts[i])[None, :]).T
+    inl = dist <= p.inlier_m
+    inliers = pts[inl[int(np.argmax(inl.sum(axis=1)))]]
+    line = None
+    for _ in range(2):
+        if inliers.shape[0] < p.min_points:
             return None
-        pts = points[sel]
-        centre = pts.mean(axis=0)
-        _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
+        centre = inliers.mean(axis=0)
+        _, _, vt = np.linalg.svd(inliers - centre, full_matrices=False)
         direction = vt[0] if float(vt[0] @ u) >= 0.0 else -vt[0]
         line = Line(centre, direction)
-        band = p.inlier_m
-    normal = np.array([-line.direction[1], line.direction[0]])
-    resid = (points[sel] - line.point) @ normal
-    return Line(line.point, line.direction, int(sel.sum()), float(np.sqrt(np.mean(resid ** 2))))
+        n_line = np.array([-direction[1], direction[0]])
+        inliers = pts[np.abs((pts - centre) @ n_line) <= p.inlier_m]
+    assert line is not None
+    n_line = np.array([-line.direction[1], line.direction[0]])
+    resid = (inliers - line.point) @ n_line
+    return Line(line.point, line.direction, int(inliers.shape[0]),
+                float(np.sqrt(np.mean(resid ** 2))) if resid.size else 0.0)
 
 
 def wall_agreement(plan: np.ndarray, plan_info: GridInfo, grid: np.ndarray,
