@@ -66,16 +66,63 @@ def test_sends_goal_on_the_frontier_and_keeps_it():
     assert c.active_goal == first and c.goals_sent == 1
 
 
-def test_goal_that_is_no_longer_a_frontier_is_replaced():
+def explored_to(col):
+    """corridor_map explored further east, up to column col (walls included)."""
+    g = corridor_map()
+    g[:, 200:col] = FREE
+    g[0, :col] = OCCUPIED
+    g[-1, :col] = OCCUPIED
+    return g
+
+
+def test_goal_that_is_no_longer_a_frontier_is_replaced_without_hysteresis():
+    c = started(goal_hysteresis=-1.0)
+    c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    first = c.active_goal
+    d = c.step(1.0, explored_to(260), INFO, (5.0, 1.0), 2, True)
+    assert d.action == ex.SEND and d.goal_xy[0] > first[0] + 2.0
+    assert d.reason == "goal is no longer a frontier" and c.goals_kept == 0
+
+
+def test_goal_kept_while_the_frontier_recedes_then_replaced_near_it():
+    """The frontier moved 3 m east: the old goal (~9.7 m) still sees unknown space beyond
+    13 m and the new candidate is not much better, so the goal is kept (no new plan for
+    move_base); once the robot is within goal_near_m of it, the next goal is sent."""
     c = started()
     c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
-    g = corridor_map()
-    g[:, 200:260] = FREE                                # explored further east
-    g[0, :260] = OCCUPIED
-    g[-1, :260] = OCCUPIED
     first = c.active_goal
-    d = c.step(1.0, g, INFO, (5.0, 1.0), 2, True)
+    d = c.step(1.0, explored_to(260), INFO, (5.0, 1.0), 2, True)
+    assert d.action == ex.NONE and d.reason == "goal kept: still useful"
+    assert c.active_goal == first and c.goals_kept == 1 and c.goals_sent == 1
+    near = (first[0] - 0.6, first[1])
+    d = c.step(2.0, explored_to(260), INFO, near, 3, True)
     assert d.action == ex.SEND and d.goal_xy[0] > first[0] + 2.0
+    assert c.goals_sent == 2
+
+
+def test_goal_dropped_when_nothing_is_left_to_see_from_it():
+    """Explored 5 m beyond the old goal: more than the laser's range, nothing to see."""
+    c = started()
+    c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+    first = c.active_goal
+    d = c.step(1.0, explored_to(285), INFO, (5.0, 1.0), 2, True)
+    assert d.action == ex.SEND and d.goal_xy[0] > first[0] + 3.0
+    assert c.goals_kept == 0
+
+
+def test_goal_dropped_when_a_much_better_candidate_appears():
+    """An unknown pocket next to the robot scores far higher than the old goal, which is
+    no longer a frontier: replaced with the default hysteresis, kept with a huge one."""
+    g = explored_to(260)
+    g[22:39, 90:130] = UNKNOWN
+    for hysteresis, kept in ((0.5, False), (100.0, True)):
+        c = started(goal_hysteresis=hysteresis)
+        c.step(0.0, corridor_map(), INFO, ROBOT, 1, True)
+        first = c.active_goal
+        d = c.step(1.0, g, INFO, (4.0, 1.0), 2, True)
+        assert (d.action == ex.NONE) == kept, hysteresis
+        if not kept:
+            assert d.action == ex.SEND and abs(d.goal_xy[0] - first[0]) > 3.0
 
 
 def two_frontier_map():

@@ -7,6 +7,14 @@ nothing) and the status to publish. Rules:
 * plan x* = argmax U (or the nearest candidate) whenever there is no active goal, and on
   every new map; an active goal is kept while it is still a frontier (a candidate goal or a
   filtered frontier cell within `goal_frontier_tolerance_m`) and the robot makes progress;
+* an active goal that is no longer a frontier (the frontier receded ahead of the robot) is
+  kept while it stays useful: the robot's path to it is longer than `goal_near_m`, the
+  laser would still see at least `min_info_gain_m2` of unknown area from it, and no
+  candidate is much better: the best candidate's U is at most (1 + `goal_hysteresis`)
+  times the goal's own U, evaluated on the new map (`nearest`: the goal's path is at most
+  (1 + `goal_hysteresis`) times the nearest candidate's). Otherwise the best candidate is
+  sent. `goal_hysteresis` < 0 turns this off (a goal is dropped as soon as it is no
+  longer a frontier);
 * a goal is blacklisted when move_base aborts/rejects it, when the robot's path length to it
   has not shrunk by `progress_min_m` within `progress_timeout_s`, and also once reached (a
   reached point is never sent again, so an unobservable frontier cannot trap the robot);
@@ -32,6 +40,7 @@ from ascc_common.params import nested, param
 
 from .frontiers import STATUS_NO_FRONTIERS, STATUS_OK
 from .goal_selection import STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN, Plan, PlannerParams, plan
+from .utility import score_candidates
 
 # Published statuses.
 IDLE = "idle"
@@ -62,6 +71,9 @@ class ExplorerParams:
     progress_min_m: float = param(0.3, "[m] progress = path length shrinks by this")
     goal_frontier_tolerance_m: float = param(0.5, "[m] goal still a frontier if a candidate "
                                              "is closer")
+    goal_hysteresis: float = param(0.5, "[-] keep a goal that is no longer a frontier "
+                                   "unless a candidate scores this much better (< 0: off)")
+    goal_near_m: float = param(1.0, "[m] ... and unless the robot's path to it is shorter")
     done_confirmations: int = param(2, "empty plans in a row before finishing")
     return_to_start: bool = param(False, "drive back to the start pose when done")
     start_tolerance_m: float = param(0.5, "[m] already at the start if closer than this")
@@ -109,6 +121,7 @@ class ExplorationController:
     state: str = IDLE
     blacklist: List[Tuple[float, float]] = field(default_factory=list)
     goals_sent: int = 0
+    goals_kept: int = 0              # plans that kept a goal no longer on a frontier
     start_xy: Optional[Tuple[float, float]] = None
     _goal: Optional[_Goal] = None
     _outcome: Optional[str] = None
@@ -171,7 +184,7 @@ class ExplorationController:
             return Decision(NONE, EXPLORING)
         self._last_map_stamp = map_stamp
         result = plan(grid, info, robot_xy, self.planner, entropy, self.blacklist)
-        return self._decide(now, result, robot_xy)
+        return self._decide(now, result, robot_xy, grid, entropy)
 
     # ---- helpers ------------------------------------------------------------------
     def _handle_outcome(self, outcome: str) -> Optional[Decision]:
@@ -192,7 +205,9 @@ class ExplorationController:
         g = self._goal
         return g is not None and now - g.improved_at > self.params.progress_timeout_s
 
-    def _decide(self, now: float, result: Plan, robot_xy: Tuple[float, float]) -> Decision:
+    def _decide(self, now: float, result: Plan, robot_xy: Tuple[float, float],
+                grid: Optional[np.ndarray] = None, entropy: Optional[float] = None
+                ) -> Decision:
         if result.status in (STATUS_NO_FRONTIERS, STATUS_ALL_BLACKLISTED, STATUS_NO_GAIN):
             self._empty_plans += 1
             if self._empty_plans < self.params.done_confirmations:
@@ -215,6 +230,9 @@ class ExplorationController:
                 return self._send_best(now, result, reason, replan=True)
             if self._still_frontier(result, g.xy):
                 return Decision(NONE, EXPLORING, plan=result)
+            if grid is not None and self._still_useful(result, g.xy, path, grid, entropy):
+                self.goals_kept += 1
+                return Decision(NONE, EXPLORING, reason="goal kept: still useful", plan=result)
             return self._send_best(now, result, "goal is no longer a frontier")
         return self._send_best(now, result, "new goal")
 
@@ -256,6 +274,28 @@ class ExplorationController:
     def _path_to(result: Plan, xy: Tuple[float, float]) -> float:
         ix, iy = result.info.world_to_cell(xy[0], xy[1])
         return float(result.frontiers.path_length_m(np.array([iy]), np.array([ix]))[0])
+
+    def _still_useful(self, result: Plan, xy: Tuple[float, float], path_m: float,
+                      grid: np.ndarray, entropy: Optional[float]) -> bool:
+        """The hysteresis rule for a goal that is no longer a frontier (module docstring)."""
+        p = self.params
+        scores = result.scores
+        if p.goal_hysteresis < 0.0 or scores is None or result.best < 0:
+            return False
+        if not math.isfinite(path_m) or path_m <= p.goal_near_m:
+            return False
+        u = self.planner.utility
+        ix, iy = result.info.world_to_cell(xy[0], xy[1])
+        w_s = result.scenario.w_scenario if result.scenario is not None else 1.0
+        own = score_candidates(grid, result.info.resolution, np.array([iy]), np.array([ix]),
+                               np.array([path_m]), np.array([1]), u, "utility", w_s, entropy)
+        gain_m2 = float(own.info[0]) * math.pi * u.sensor_range_m ** 2
+        if gain_m2 < max(u.min_info_gain_m2, 1e-9):
+            return False                   # nothing left to see from there
+        if self.planner.strategy == "nearest":
+            return path_m <= (1.0 + p.goal_hysteresis) * float(scores.path_m[result.best])
+        return float(scores.total[result.best]) <= (1.0 + p.goal_hysteresis) * float(
+            own.total[0])
 
     def _still_frontier(self, result: Plan, xy: Tuple[float, float]) -> bool:
         """A candidate goal or a filtered frontier cell within the tolerance of xy."""
