@@ -11,8 +11,9 @@ echo "machine: $(nproc) cores, $(free -g | awk '/Mem:/ {print $2}') GiB, $(pytho
 rc=0
 for b in ascc_ros_pkg/*/scripts/bench_*.py; do
   [ -e "$b" ] || continue
-  # hours of simulated exploration: only with BENCH_ALL=1 (or run it by hand)
-  case "$b" in *bench_exploration.py) [ "${BENCH_ALL:-0}" = 1 ] || { echo "(skipping $b; BENCH_ALL=1 runs it)"; continue; } ;; esac
+  # hours of simulated exploration, a 10-minute real-time CPU run: only with BENCH_ALL=1
+  # (or run them by hand)
+  case "$b" in *bench_exploration.py|*bench_cpu.py) [ "${BENCH_ALL:-0}" = 1 ] || { echo "(skipping $b; BENCH_ALL=1 runs it)"; continue; } ;; esac
   printf '\n==== %s ====\n' "$b"
   python "$b" || { echo "benchmark $b failed"; rc=1; }
 done

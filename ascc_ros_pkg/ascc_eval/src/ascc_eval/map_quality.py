@@ -329,25 +329,27 @@ def report_lines(q: Quality) -> List[str]:
 
 def write_overlay(path: str, q: Quality, grid: np.ndarray, info: GridInfo, plan: np.ndarray,
                   plan_info: GridInfo, map_pose: Tuple[float, float, float],
-                  max_side_px: int = 2400) -> None:
-    """PNG of the map over the floor plan (north up), fitted sides and corners."""
+                  max_side_px: int = 1600) -> None:
+    """PNG of the map over the floor plan (north up), fitted sides and corners; the longer
+    side max_side_px pixels (small maps enlarged at most 4x)."""
     on_plan = resample(grid, compose(map_pose, info), plan_info, plan.shape)
     img = np.full(plan.shape + (3,), 215, np.uint8)                  # BGR, unknown
     img[plan == FREE] = (255, 255, 255)
     img[plan == OCCUPIED] = (110, 110, 110)
     img[on_plan == FREE] = (250, 225, 200)
     img[on_plan == OCCUPIED] = (30, 30, 220)
-    scale = min(1.0, max_side_px / max(plan.shape))
-    if scale < 1.0:
-        img = cv2.resize(img, (int(plan.shape[1] * scale), int(plan.shape[0] * scale)),
-                         interpolation=cv2.INTER_AREA)
+    scale = min(4.0, max_side_px / max(plan.shape))       # small maps enlarged, up to 4x
+    if scale != 1.0:
+        img = cv2.resize(img, (int(round(plan.shape[1] * scale)),
+                               int(round(plan.shape[0] * scale))),
+                         interpolation=cv2.INTER_AREA if scale < 1.0 else cv2.INTER_NEAREST)
     img = np.ascontiguousarray(img[::-1])                             # row 0 = top
 
     def px(xy: np.ndarray) -> Tuple[int, int]:
         cx, cy = plan_info.world_to_cell(float(xy[0]), float(xy[1]))
         return int(round(cx * scale)), int(round(img.shape[0] - 1 - cy * scale))
 
-    thick = max(1, int(round(2 * scale)))
+    thick = max(1, int(round(scale)))
     for o in q.outlines:
         for lines, colour in ((o.plan_lines, (40, 170, 40)), (o.map_lines, (200, 80, 0))):
             corners = o.corners(lines)
