@@ -229,6 +229,30 @@ class Recognizer:
         post = post * (np.asarray(prior) / self.class_prior)
         return post / post.sum(axis=-1, keepdims=True)
 
+    def prior_over_classes(self, names: Sequence[str], probs: Sequence[float]) -> np.ndarray:
+        """The fed-back prior (``probs`` over the activities ``names``, e.g. the fusion's
+        five of 5.5) over all the recognizer's classes: the named classes share their
+        training prior's mass in proportion to ``probs``; the other classes (walking, the
+        transitions) keep their training prior, so the prior leaves them alone. ValueError
+        on a name the recognizer does not know, a length mismatch or a bad probability."""
+        classes = list(self.config.classes)
+        probs = np.asarray(probs, dtype=float)
+        if len(names) != probs.size:
+            raise ValueError("%d activities but %d probabilities" % (len(names), probs.size))
+        if not (np.all(np.isfinite(probs)) and np.all(probs >= 0.0) and probs.sum() > 0.0):
+            raise ValueError("probabilities must be finite, >= 0 and not all 0: %s"
+                             % np.array2string(probs, precision=3))
+        idx = []
+        for n in names:
+            if n not in classes:
+                raise ValueError("activity %r is not a class of the recognizer (%s)"
+                                 % (n, ", ".join(classes)))
+            idx.append(classes.index(n))
+        out = self.class_prior.astype(float).copy()
+        mass = out[idx].sum()
+        out[idx] = mass * probs / probs.sum()
+        return out
+
     def posteriors(self, features: np.ndarray, prior: Optional[np.ndarray] = None,
                    kind: Optional[str] = None) -> np.ndarray:
         """(n, classes) P(A_t | ...) for a sequence of windows of one person (``kind``

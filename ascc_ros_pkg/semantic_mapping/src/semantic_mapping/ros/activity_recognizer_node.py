@@ -3,7 +3,10 @@ sensors (thesis 5.4.2). Subscribes ``wearable/<waist>/imu`` and ``wearable/<thig
 keeps the newest acceleration of each (a sensor asleep under the power scheme sends
 nothing: its last sample is held, as in training), feeds both at the model's sample rate
 to `semantic_mapping.activity.OnlineRecognizer`, and publishes one
-``semantic_mapping/Activity`` per window on ``activity``. The model is the file written by
+``semantic_mapping/Activity`` per window on ``activity``; the room belief's prior
+(``activity_prior``, semantic_mapping/ActivityPrior, from semantic_mapper) weighs the
+posterior (`Recognizer.prior_over_classes`, `Recognizer.apply_prior`). The model is the
+file written by
 ``train_activity --out``. Parameters: `semantic_mapping.activity.RecognizerNodeParams`.
 """
 import os
@@ -17,7 +20,7 @@ from sensor_msgs.msg import Imu
 
 from ascc_common.params import from_params
 from semantic_mapping.activity import OnlineRecognizer, Recognizer, RecognizerNodeParams
-from semantic_mapping.msg import Activity
+from semantic_mapping.msg import Activity, ActivityPrior
 from semantic_mapping.ros import run
 
 
@@ -46,10 +49,12 @@ class ActivityRecognizerNode:
         self.online = OnlineRecognizer(self.rec)
         self.lock = threading.Lock()
         self.latest = {}  # sensor name -> (3,) acceleration [m/s^2]
+        self.prior = None  # P_t(A) over the recognizer's classes (None: the training prior)
         self.pub = rospy.Publisher("activity", Activity, queue_size=10)
         for name in (p.waist_sensor, p.thigh_sensor):
             rospy.Subscriber("wearable/%s/imu" % name, Imu, self.on_imu, callback_args=name,
                              queue_size=50)
+        rospy.Subscriber("activity_prior", ActivityPrior, self.on_prior, queue_size=1)
         cfg = self.rec.config
         rospy.Timer(rospy.Duration(1.0 / cfg.rate_hz), self.on_tick)
         rospy.loginfo("activity recognizer: %s (%s, %s features, %g s windows every %g s)",
@@ -66,17 +71,29 @@ class ActivityRecognizerNode:
         with self.lock:
             self.latest[name] = value
 
+    def on_prior(self, msg):
+        """The room belief's activity prior (semantic_mapper), over our classes."""
+        try:
+            prior = self.rec.prior_over_classes(msg.activities, msg.probability)
+        except ValueError as err:
+            rospy.logwarn_throttle(self.p.warn_period_s, "activity recognizer: activity "
+                                   "prior ignored: %s" % err)
+            return
+        with self.lock:
+            self.prior = prior
+
     def on_tick(self, _event):
         with self.lock:
             waist = self.latest.get(self.p.waist_sensor)
             thigh = self.latest.get(self.p.thigh_sensor)
+            prior = self.prior
         if waist is None or thigh is None:
             missing = [n for n, v in ((self.p.waist_sensor, waist),
                                       (self.p.thigh_sensor, thigh)) if v is None]
             rospy.logwarn_throttle(self.p.warn_period_s, "activity recognizer: waiting for "
                                    "%s" % ", ".join("wearable/%s/imu" % n for n in missing))
             return
-        out = self.online.push(waist, thigh)
+        out = self.online.push(waist, thigh, prior)
         if out is None:
             return
         label, probability, posterior = out

@@ -1,0 +1,314 @@
+"""The semantic map of thesis 5.2.2 and 5.6: where the person is, what they do there, and
+the furniture labels that follow (pure Python, no rospy; the node `semantic_mapper` feeds
+it).
+
+    track(t, x, y)          the person's location L_h [m, map frame] at time t [s]
+                            (`location.human_location` from the robot pose and the
+                            target's bearing and range)
+    observe(t, activity)    a recognized activity whose window ends at t: the person's
+                            location is the median of the tracked locations over the
+                            window; its semantic grid G = g([X, Y]) and location type CL
+                            (occupancy map, 20 cm wall threshold) fuse into P_{G,t}(F)
+                            (eq. 5.1-5.3, `fusion.GridBeliefs`)
+    labels                  one `Label` per fused grid: MAP furniture, belief, entropy,
+                            the "returned" flag of 5.6
+    room_belief / activity_prior   P_t(R) of 5.5 and the activity prior it feeds back
+
+Skipped, not fused: "unknown", activities that are not in the models' O (walking, the
+transitions), and a window in which the person moved more than ``max_spread_m`` (not at
+one place). Refused with `LocationError` (the node reports it): no location in the window,
+a location outside the occupancy map, no map yet.
+
+Semantic grid. Cells of ``grid_resolution_m`` anchored at the map frame's origin (the
+occupancy map grows while it is built; the semantic cells do not move with it). A label's
+position is the mean of the person's locations fused at its grid (inside its cell; the
+cell's centre would add up to 0.7 x ``grid_resolution_m`` of rounding).
+
+Revisits (5.6). A label is *left* once the person is tracked farther than
+``leave_distance_m`` from its cell's centre; a fused observation at a left label's grid
+marks it *returned* ("chair->returned").
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import deque
+from dataclasses import dataclass
+from typing import Deque, Dict, List, Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+import yaml
+
+from ascc_common.grid import FREE, OCCUPIED, GridInfo
+from ascc_common.map_io import save_map
+from ascc_common.params import nested, param
+
+from .fusion import GridBeliefs, activity_prior, room_belief
+from .location import LocationParams, grid_index, location_type_at
+from .models import Models
+
+UNKNOWN = "unknown"
+
+
+class LocationError(ValueError):
+    """The person's location for an activity cannot be used (none, outside the map)."""
+
+
+@dataclass
+class SemanticMapperParams:
+    """The semantic_mapper node's private parameters."""
+
+    models_path: str = param("", "model tables YAML (empty: the package's config/models.yaml)")
+    grid_resolution_m: float = param(0.25, "[m] side of a semantic grid cell G", gt=0.0)
+    window_s: float = param(3.0, "[s] the person's location for an activity is the median "
+                            "of the tracked locations over this before its stamp", gt=0.0)
+    max_spread_m: float = param(0.5, "[m] an activity during which the tracked location "
+                                "spread more than this (the person walked) is not fused",
+                                gt=0.0)
+    leave_distance_m: float = param(1.0, "[m] the person this far from a label has left it "
+                                    "(a later visit is a return)", gt=0.0)
+    target_kind: str = param("shirt", "the detection kind that is the person")
+    body_radius_m: float = param(0.15, "[m] added to the target's range: the laser's range "
+                                 "is the body's near surface, the location its centre",
+                                 ge=0.0)
+    target_max_age_s: float = param(0.5, "[s] Target messages older than this are ignored",
+                                    gt=0.0)
+    base_frame: str = param("base_link", "the robot frame of the Target messages")
+    map_frame: str = param("map", "the occupancy map's frame")
+    output_dir: str = param("", "where ~save and shutdown write the semantic map (empty: "
+                            "no saving on shutdown; ~save needs it)")
+    output_name: str = param("semantic_map", "file stem of the saved map")
+    marker_height_m: float = param(0.5, "[m] label text height above the floor", gt=0.0)
+    warn_period_s: float = param(10.0, "[s] each kind of warning at most once per this",
+                                 gt=0.0)
+    location: LocationParams = nested(LocationParams, "location/")
+
+
+@dataclass
+class Label:
+    """The semantic label of one grid."""
+
+    grid: Tuple[int, int]
+    x: float                 # [m] map frame: the mean of the fused locations
+    y: float
+    label: str               # MAP furniture (eq. 5.3)
+    belief: np.ndarray       # P_{G,t}(F)
+    entropy_bits: float
+    information_bits: float  # of the last update
+    location_type: int       # CL (1..5) of the last update
+    updates: int = 0
+    left: bool = False       # the person went farther than leave_distance_m since
+    returned: bool = False   # came back after leaving (5.6)
+    sum_x: float = 0.0       # [m] of the fused locations
+    sum_y: float = 0.0
+
+    @property
+    def text(self) -> str:
+        return self.label + ("->returned" if self.returned else "")
+
+
+@dataclass(frozen=True)
+class Observed:
+    """What `SemanticMap.observe` did: ``label`` updated, or ``skipped`` with a reason."""
+
+    label: Optional[Label] = None
+    skipped: str = ""
+
+
+class SemanticMap:
+    def __init__(self, models: Models, params: SemanticMapperParams):
+        self.models = models
+        self.p = params
+        self.beliefs = GridBeliefs(models)
+        self.labels: Dict[Tuple[int, int], Label] = {}
+        self.track_log: Deque[Tuple[float, float, float]] = deque()
+        self.grid: Optional[np.ndarray] = None
+        self.info: Optional[GridInfo] = None
+        self._index = {a: i for i, a in enumerate(models.activities)}
+
+    # -- inputs ---------------------------------------------------------------------------
+    def set_map(self, grid: np.ndarray, info: GridInfo) -> None:
+        """The occupancy map (``grid[iy, ix]``, ascc_common.grid values)."""
+        info.check_axis_aligned()
+        self.grid, self.info = np.asarray(grid), info
+
+    def track(self, t: float, x: float, y: float) -> None:
+        """The person is at (x, y) [m] at time t [s]."""
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(t)):
+            raise LocationError("non-finite location (%r, %r) at %r" % (x, y, t))
+        self.track_log.append((t, x, y))
+        keep = 2.0 * self.p.window_s + 5.0
+        while self.track_log and self.track_log[0][0] < t - keep:
+            self.track_log.popleft()
+        for lab in self.labels.values():
+            if math.hypot(x - lab.x, y - lab.y) > self.p.leave_distance_m:
+                lab.left = True
+
+    def location(self, t: float) -> Tuple[float, float, float]:
+        """(x, y, spread) [m]: the median of the locations tracked in [t - window_s, t],
+        and the largest distance of one of them from it. LocationError if none."""
+        pts = np.array([(x, y) for s, x, y in self.track_log
+                        if t - self.p.window_s <= s <= t + 1e-6]).reshape(-1, 2)
+        if not len(pts):
+            raise LocationError("no location of the person in the %.1f s before the "
+                                "activity" % self.p.window_s)
+        med = np.median(pts, axis=0)
+        spread = float(np.max(np.hypot(*(pts - med).T)))
+        return float(med[0]), float(med[1]), spread
+
+    def cell(self, x: float, y: float) -> Tuple[int, int]:
+        r = self.p.grid_resolution_m
+        return int(math.floor(x / r)), int(math.floor(y / r))
+
+    def cell_centre(self, g: Tuple[int, int]) -> Tuple[float, float]:
+        r = self.p.grid_resolution_m
+        return (g[0] + 0.5) * r, (g[1] + 0.5) * r
+
+    def observe(self, t: float, activity: str) -> Observed:
+        """Fuse the activity recognized over the window ending at ``t`` [s]."""
+        if activity == UNKNOWN:
+            return Observed(skipped="unknown activity")
+        o = self._index.get(activity)
+        if o is None:
+            return Observed(skipped="%s is not an activity of the models" % activity)
+        if self.grid is None:
+            raise LocationError("no occupancy map yet")
+        x, y, spread = self.location(t)
+        if spread > self.p.max_spread_m:
+            return Observed(skipped="the person moved %.2f m during the window" % spread)
+        try:
+            grid_index(self.info, x, y)
+        except ValueError as err:
+            raise LocationError("the person's %s" % err) from err
+        cl = location_type_at(self.grid, self.info, self.p.location, x, y)
+        g = self.cell(x, y)
+        up = self.beliefs.update(g, o, cl - 1)
+        lab = self.labels.get(g)
+        if lab is None:
+            lab = self.labels[g] = Label(g, x, y, "", up.belief, 0.0, 0.0, cl)
+        elif lab.left:
+            lab.returned = True
+        lab.left = False
+        lab.label = self.models.furniture[up.label]
+        lab.belief, lab.entropy_bits = up.belief, up.entropy_bits
+        lab.information_bits, lab.location_type = up.information_bits, cl
+        lab.updates += 1
+        lab.sum_x, lab.sum_y = lab.sum_x + x, lab.sum_y + y
+        lab.x, lab.y = lab.sum_x / lab.updates, lab.sum_y / lab.updates
+        return Observed(label=lab)
+
+    # -- outputs --------------------------------------------------------------------------
+    def room_belief(self) -> np.ndarray:
+        return room_belief(self.models, [self.models.furniture.index(lab.label)
+                                         for lab in self.labels.values()])
+
+    def activity_prior(self) -> np.ndarray:
+        """P_t(A) over the models' activities, from P_t(R) (fed back to the recognizer)."""
+        return activity_prior(self.models, self.room_belief())
+
+    def labels_doc(self) -> dict:
+        """The labels as plain data (the saved YAML)."""
+        return {
+            "frame": self.p.map_frame,
+            "grid_resolution_m": self.p.grid_resolution_m,
+            "furniture": list(self.models.furniture),
+            "rooms": {r: round(float(p), 6) for r, p in zip(self.models.rooms,
+                                                             self.room_belief())},
+            "labels": [{
+                "grid": [int(lab.grid[0]), int(lab.grid[1])],
+                "position_m": [round(lab.x, 4), round(lab.y, 4)],
+                "label": lab.label, "text": lab.text, "returned": bool(lab.returned),
+                "belief": [round(float(b), 6) for b in lab.belief],
+                "entropy_bits": round(lab.entropy_bits, 6),
+                "location_type": int(lab.location_type), "updates": lab.updates,
+            } for lab in sorted(self.labels.values(), key=lambda lab: lab.grid)],
+        }
+
+    def save(self, directory: str, stem: str) -> Dict[str, str]:
+        """map_server YAML + PGM of the occupancy map, ``<stem>_labels.yaml`` and a PNG
+        with the labels drawn; returns the paths. LocationError without a map."""
+        if self.grid is None:
+            raise LocationError("no occupancy map to save yet")
+        os.makedirs(directory, exist_ok=True)
+        base = os.path.join(directory, stem)
+        pgm = save_map(base + ".yaml", self.grid, self.info,
+                       comment="semantic_mapping: occupancy map of the semantic map")
+        with open(base + "_labels.yaml", "w", encoding="utf-8") as f:
+            yaml.safe_dump(self.labels_doc(), f, sort_keys=False)
+        png = base + ".png"
+        if not cv2.imwrite(png, draw_labels(self.grid, self.info, self.labels.values())):
+            raise OSError("cannot write %s" % png)
+        return {"yaml": base + ".yaml", "pgm": pgm, "labels": base + "_labels.yaml",
+                "png": png}
+
+
+COLOURS = [(40, 40, 220), (200, 120, 0), (0, 150, 0), (180, 0, 180), (0, 140, 220),
+           (120, 80, 20), (80, 80, 80)]  # BGR, one per furniture index (cycled)
+
+
+def draw_labels(grid: np.ndarray, info: GridInfo, labels, scale: int = 4,
+                furniture: Sequence[str] = ()) -> np.ndarray:
+    """A BGR image of the map (free white, occupied black, unknown grey), north up, with a
+    dot and the text of every label."""
+    img = np.full(grid.shape, 205, dtype=np.uint8)
+    img[grid == FREE] = 254
+    img[grid == OCCUPIED] = 0
+    img = cv2.resize(np.flipud(img), None, fx=scale, fy=scale,
+                     interpolation=cv2.INTER_NEAREST)
+    img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+    names = list(furniture)
+    for lab in labels:
+        u = (lab.x - info.origin_x) / info.resolution * scale
+        v = img.shape[0] - (lab.y - info.origin_y) / info.resolution * scale
+        if lab.label not in names:
+            names.append(lab.label)
+        colour = COLOURS[names.index(lab.label) % len(COLOURS)]
+        centre = (int(round(u)), int(round(v)))
+        cv2.circle(img, centre, max(3, scale + 1), colour, -1, cv2.LINE_AA)
+        cv2.putText(img, lab.text, (centre[0] + 6, centre[1] - 6), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.4, colour, 1, cv2.LINE_AA)
+    return img
+
+
+@dataclass
+class ItemScore:
+    """One furniture item against the labels (the end-to-end checks)."""
+
+    name: str
+    expected: str
+    found: str = ""                 # the nearest label's furniture ("" if none in reach)
+    distance_m: float = float("inf")  # from the nearest label to the item's footprint
+    correct: bool = False
+
+
+def footprint_distance(px: float, py: float, x: float, y: float, yaw: float,
+                       size_x: float, size_y: float) -> float:
+    """[m] from the point (px, py) to the rectangle of ``size_x`` x ``size_y`` [m] centred
+    at (x, y), its x side along ``yaw`` [rad] (0 inside it)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = px - x, py - y
+    u, v = c * dx + s * dy, -s * dx + c * dy
+    return math.hypot(max(abs(u) - size_x / 2.0, 0.0), max(abs(v) - size_y / 2.0, 0.0))
+
+
+def score_items(items: Sequence[Tuple[str, str, float, float, float, float, float]],
+                labels: Sequence[dict], radius_m: float = 0.5) -> List[ItemScore]:
+    """Per item (name, expected furniture, x, y [m], yaw [rad], size_x, size_y [m]): the
+    label nearest its footprint (dicts with ``position_m`` and ``label``, as in
+    `SemanticMap.labels_doc`); correct when it lies within ``radius_m`` of the footprint
+    and names the expected furniture."""
+    out = []
+    for name, expected, x, y, yaw, sx, sy in items:
+        s = ItemScore(name, expected)
+        for lab in labels:
+            d = footprint_distance(lab["position_m"][0], lab["position_m"][1], x, y, yaw,
+                                   sx, sy)
+            if d < s.distance_m:
+                s.distance_m, s.found = d, lab["label"]
+        if s.distance_m > radius_m:
+            s.found = ""
+        s.correct = bool(s.found) and s.found == expected
+        out.append(s)
+    return out

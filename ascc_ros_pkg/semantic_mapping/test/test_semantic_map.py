@@ -1,0 +1,219 @@
+"""The semantic map (no master): fusion at the person's location, skipped and refused
+activities, revisits (5.6), room feedback, saving, scoring; the recognizer's prior."""
+import math
+import os
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from ascc_common.grid import FREE, OCCUPIED, GridInfo
+from ascc_common.map_io import load_map
+from semantic_mapping.activity import Recognizer, RecognizerConfig
+from semantic_mapping.fusion import observation_given_furniture
+from semantic_mapping.location import location_type_at
+from semantic_mapping.models import DEFAULT_MODELS, load_models
+from semantic_mapping.semantic_map import (
+    LocationError,
+    SemanticMap,
+    SemanticMapperParams,
+    footprint_distance,
+    score_items,
+)
+
+APARTMENT = os.path.join(os.path.dirname(DEFAULT_MODELS), "apartment_models.yaml")
+RES = 0.05
+
+
+def room(w_m=4.0, h_m=3.0):
+    """A closed room, walls one cell thick on the border, origin (-1, -1) m."""
+    grid = np.full((int(round(h_m / RES)), int(round(w_m / RES))), FREE, dtype=np.int8)
+    grid[0, :] = grid[-1, :] = grid[:, 0] = grid[:, -1] = OCCUPIED
+    return grid, GridInfo(RES, grid.shape[1], grid.shape[0], -1.0, -1.0)
+
+
+def make(models_path=DEFAULT_MODELS, **kw):
+    models = load_models(models_path)
+    sm = SemanticMap(models, SemanticMapperParams(**kw))
+    sm.set_map(*room())
+    return sm
+
+
+def stay(sm, t0, t1, x, y, rate_hz=10.0):
+    for t in np.arange(t0, t1, 1.0 / rate_hz):
+        sm.track(float(t), x, y)
+
+
+def test_fusion_at_the_person_location_by_eq_5_2():
+    sm = make()
+    # beside the west wall (x = -1 m): the person at 0.3 m from it
+    x, y = -0.55, 0.5
+    stay(sm, 0.0, 3.0, x, y)
+    out = sm.observe(3.0, "sitting")
+    lab = out.label
+    assert lab is not None and out.skipped == ""
+    cl = location_type_at(sm.grid, sm.info, sm.p.location, x, y)
+    assert cl == 2  # one side beside a wall
+    m = sm.models
+    o = m.activities.index("sitting")
+    expect = observation_given_furniture(m.observation, m.activity)[o] * m.location[cl - 1]
+    expect /= expect.sum()
+    np.testing.assert_allclose(lab.belief, expect)
+    assert lab.label == m.furniture[int(np.argmax(expect))]
+    assert lab.grid == (int(np.floor(x / 0.25)), int(np.floor(y / 0.25)))
+    assert (lab.x, lab.y) == pytest.approx((x, y))
+    # a second window at the same place multiplies in again
+    stay(sm, 3.0, 6.0, x, y)
+    lab2 = sm.observe(6.0, "sitting").label
+    again = expect * expect
+    np.testing.assert_allclose(lab2.belief, again / again.sum())
+    assert lab2.updates == 2 and not lab2.returned
+
+
+def test_location_is_the_median_over_the_window():
+    sm = make(window_s=2.0)
+    stay(sm, 0.0, 5.0, 2.0, 1.0)        # earlier, elsewhere: outside the window
+    stay(sm, 5.0, 8.0, 0.6, 0.6)
+    sm.track(7.5, 0.9, 0.6)               # one outlier within the spread
+    x, y, spread = sm.location(8.0)
+    assert (x, y) == (0.6, 0.6)
+    assert spread == pytest.approx(0.3)
+    assert sm.observe(8.0, "lying").label.grid == (2, 2)
+
+
+def test_skipped_activities_update_nothing():
+    sm = make()
+    stay(sm, 0.0, 3.0, 0.5, 0.5)
+    for activity in ("unknown", "walking", "sit_to_stand"):
+        out = sm.observe(3.0, activity)
+        assert out.label is None and out.skipped
+    # the person walked 1.5 m during the window
+    for i, t in enumerate(np.arange(3.0, 6.0, 0.1)):
+        sm.track(float(t), 0.5 * i / 10.0, 0.5)
+    out = sm.observe(6.0, "sitting")
+    assert out.label is None and "moved" in out.skipped
+    assert sm.labels == {}
+
+
+def test_refused_inputs_raise_location_error():
+    models = load_models(DEFAULT_MODELS)
+    sm = SemanticMap(models, SemanticMapperParams())
+    stay(sm, 0.0, 3.0, 0.5, 0.5)
+    with pytest.raises(LocationError, match="no occupancy map"):
+        sm.observe(3.0, "sitting")
+    sm.set_map(*room())
+    with pytest.raises(LocationError, match="no location"):
+        sm.observe(30.0, "sitting")
+    stay(sm, 30.0, 33.0, 7.0, 0.5)   # east of the map (x up to 3 m)
+    with pytest.raises(LocationError, match="outside the map"):
+        sm.observe(33.0, "sitting")
+    with pytest.raises(LocationError, match="non-finite"):
+        sm.track(34.0, float("nan"), 0.0)
+    assert sm.labels == {}
+
+
+def test_returned_after_leaving_and_coming_back():
+    sm = make(leave_distance_m=1.0)
+    stay(sm, 0.0, 3.0, 0.1, 0.1)
+    first = sm.observe(3.0, "sitting").label
+    stay(sm, 3.0, 6.0, 0.3, 0.1)         # nearby (0.2 m): not left
+    sm.observe(6.0, "sitting")
+    assert not first.returned and first.text == first.label
+    stay(sm, 6.0, 9.0, 2.0, 1.5)         # 2.4 m away: left
+    sm.observe(9.0, "lying")
+    assert not first.returned
+    stay(sm, 9.0, 12.0, 0.1, 0.1)
+    back = sm.observe(12.0, "sitting").label
+    assert back is first and back.returned
+    assert back.text == back.label + "->returned"
+    assert [lab.returned for lab in sm.labels.values()].count(True) == 1
+
+
+def test_room_belief_and_activity_prior_follow_the_labels():
+    sm = make(APARTMENT)
+    uniform = sm.room_belief()
+    np.testing.assert_allclose(uniform, 1.0 / 3.0)
+    stay(sm, 0.0, 3.0, -0.55, 0.5)   # beside the west wall
+    assert sm.observe(3.0, "lying").label.label == "bench"
+    rooms = sm.room_belief()
+    assert np.argmax(rooms) == sm.models.rooms.index("bedroom")
+    prior = sm.activity_prior()
+    np.testing.assert_allclose(prior, sm.models.room_activity @ rooms)
+    assert prior.sum() == pytest.approx(1.0)
+
+
+def test_apartment_models_label_bench_chair_shelf():
+    """The apartment's tables: lying, sitting and standing at a wall pick bench, chair
+    and shelf."""
+    sm = make(APARTMENT)
+    for i, (activity, expected) in enumerate((("lying", "bench"), ("sitting", "chair"),
+                                              ("standing", "shelf"))):
+        x = -0.55
+        y = -0.5 + 1.0 * i
+        stay(sm, 10.0 * i, 10.0 * i + 3.0, x, y)
+        assert sm.observe(10.0 * i + 3.0, activity).label.label == expected
+
+
+def test_save_writes_map_labels_and_png(tmp_path):
+    sm = make()
+    stay(sm, 0.0, 3.0, 0.5, 0.5)
+    sm.observe(3.0, "sitting")
+    paths = sm.save(str(tmp_path / "out"), "sm")
+    grid, info = load_map(paths["yaml"])
+    np.testing.assert_array_equal(grid == OCCUPIED, sm.grid == OCCUPIED)
+    assert info.resolution == RES and (info.origin_x, info.origin_y) == (-1.0, -1.0)
+    doc = yaml.safe_load(open(paths["labels"]))
+    (lab,) = doc["labels"]
+    assert lab["label"] == sm.models.furniture[int(np.argmax(lab["belief"]))]
+    assert lab["position_m"] == [0.5, 0.5] and lab["returned"] is False
+    img = cv2.imread(paths["png"])
+    assert img.shape[:2] == (sm.grid.shape[0] * 4, sm.grid.shape[1] * 4)
+    assert (img[..., 0] != img[..., 2]).any()  # a coloured label is drawn
+
+
+def test_save_without_a_map_is_refused(tmp_path):
+    sm = SemanticMap(load_models(DEFAULT_MODELS), SemanticMapperParams())
+    with pytest.raises(LocationError):
+        sm.save(str(tmp_path), "x")
+
+
+def test_footprint_distance():
+    # a 2 m x 1 m item turned by 90 degrees: 1 m along y, 0.5 m along x from its centre
+    assert footprint_distance(0.0, 0.9, 0.0, 0.0, math.pi / 2, 2.0, 1.0) == 0.0
+    assert footprint_distance(0.8, 0.0, 0.0, 0.0, math.pi / 2, 2.0, 1.0) == \
+        pytest.approx(0.3)
+    assert footprint_distance(0.8, 1.4, 0.0, 0.0, math.pi / 2, 2.0, 1.0) == \
+        pytest.approx(0.5)
+
+
+def test_score_items():
+    labels = [{"position_m": [1.0, 1.0], "label": "chair"},
+              {"position_m": [3.0, 1.0], "label": "bench"},
+              {"position_m": [5.0, 1.2], "label": "chair"}]
+    items = [("c1", "chair", 1.5, 1.0, 0.0, 0.6, 0.6), ("b", "bench", 3.0, 1.8, 0.0, 1.0, 0.4),
+             ("s", "shelf", 5.0, 1.0, 0.0, 0.2, 0.2), ("far", "chair", 9.0, 9.0, 0.0, 1.0, 1.0)]
+    s = {i.name: i for i in score_items(items, labels, 0.5)}
+    assert s["c1"].correct and s["c1"].distance_m == pytest.approx(0.2)
+    assert not s["b"].correct and s["b"].found == ""         # 0.6 m away
+    assert not s["s"].correct and s["s"].found == "chair"    # wrong label
+    assert not s["far"].correct
+
+
+def test_recognizer_prior_over_classes():
+    rec = Recognizer(RecognizerConfig())
+    k = len(rec.config.classes)
+    rec.class_prior = np.arange(1, k + 1, dtype=float) / (k * (k + 1) / 2)
+    names = ["lying", "sitting"]
+    out = rec.prior_over_classes(names, [3.0, 1.0])
+    cls = list(rec.config.classes)
+    i, j = cls.index("lying"), cls.index("sitting")
+    mass = rec.class_prior[i] + rec.class_prior[j]
+    assert out[i] == pytest.approx(0.75 * mass) and out[j] == pytest.approx(0.25 * mass)
+    others = [n for n in range(k) if n not in (i, j)]
+    np.testing.assert_allclose(out[others], rec.class_prior[others])
+    assert out.sum() == pytest.approx(1.0)
+    for bad_names, bad_probs in ((["flying"], [1.0]), (["lying"], [1.0, 2.0]),
+                                 (["lying"], [float("nan")]), (["lying"], [0.0])):
+        with pytest.raises(ValueError):
+            rec.prior_over_classes(bad_names, bad_probs)
