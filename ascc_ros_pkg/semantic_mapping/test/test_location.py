@@ -82,6 +82,58 @@ def test_vectorised_equals_the_definition_on_a_random_map():
     assert set(np.unique(location_types(grid, GridInfo(RES, 50, 40), P))) == {1, 2, 3, 4, 5}
 
 
+def reference_cover_types(grid, params):
+    """Per cell, from the definition with ``wall_min_cover``: the fraction of a side's
+    cells whose line out through the band meets an occupied cell."""
+    occ = grid == OCCUPIED
+    h, w = occ.shape
+    half = int(round(params.object_half_size_m / RES))
+    band = int(math.ceil(params.wall_threshold_m / RES - 1e-9))
+
+    def hit(y, x):
+        return 0 <= y < h and 0 <= x < w and bool(occ[y, x])
+
+    out = np.zeros((h, w), dtype=np.uint8)
+    for iy in range(h):
+        for ix in range(w):
+            along = range(-half, half + 1)
+            out_of = range(half + 1, half + band + 1)
+            cover = [np.mean([any(hit(iy + a, ix + sgn * d) for d in out_of) for a in along])
+                     for sgn in (1, -1)]
+            cover += [np.mean([any(hit(iy + sgn * d, ix + a) for d in out_of) for a in along])
+                      for sgn in (1, -1)]
+            px, nx, py, ny = (c > params.wall_min_cover for c in cover)
+            n = int(px) + int(nx) + int(py) + int(ny)
+            out[iy, ix] = (1 if n == 0 else 2 if n == 1 else 5 if n >= 3
+                           else 4 if (px and nx) or (py and ny) else 3)
+    return out
+
+
+def test_wall_cover_vectorised_equals_the_definition():
+    rng = np.random.default_rng(5)
+    grid = np.where(rng.random((30, 36)) < 0.08, OCCUPIED, FREE).astype(np.int8)
+    grid[4:6, :] = OCCUPIED  # a wall
+    for params in (LocationParams(0.2, 0.25, 0.5), LocationParams(0.1, 0.15, 0.3)):
+        got = location_types(grid, GridInfo(RES, 36, 30), params)
+        assert np.array_equal(got, reference_cover_types(grid, params))
+    # a tiny cover is the thesis's "any cell"
+    any_cell = location_types(grid, GridInfo(RES, 36, 30), LocationParams(0.2, 0.25, 1e-9))
+    assert np.array_equal(any_cell, location_types(grid, GridInfo(RES, 36, 30), P))
+
+
+def test_a_long_item_beside_the_object_is_one_side_with_cover():
+    """The person beside a bench 1.5 m long (a filled rectangle), 0.22 m from its face:
+    with any cell, the bench's edge column reaches into the bands of the two neighbouring
+    sides (three sides, CL 5); with cover 0.5 only the side along it counts (CL 2)."""
+    grid, info = room(4.0, 4.0)
+    grid[int(1.25 / RES):int(2.75 / RES), int(1.5 / RES):int(2.0 / RES)] = OCCUPIED
+    x, y = 2.0 + 0.22, 2.0
+    assert location_type_at(grid, info, P, x, y) == 5
+    assert location_type_at(grid, info, LocationParams(wall_min_cover=0.5), x, y) == 2
+    # away from the bench, in the open: no side either way
+    assert location_type_at(grid, info, LocationParams(wall_min_cover=0.5), 3.0, 2.0) == 1
+
+
 def test_human_location_rep103():
     # facing +y, the person on the left (bearing +90 deg) is at -x
     x, y = human_location(1.0, 2.0, math.pi / 2, 1.0, math.pi / 2)

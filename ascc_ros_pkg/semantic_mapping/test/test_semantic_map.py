@@ -20,6 +20,7 @@ from semantic_mapping.semantic_map import (
     SemanticMapperParams,
     footprint_distance,
     score_items,
+    world_items,
 )
 
 APARTMENT = os.path.join(os.path.dirname(DEFAULT_MODELS), "apartment_models.yaml")
@@ -178,26 +179,45 @@ def test_save_without_a_map_is_refused(tmp_path):
         sm.save(str(tmp_path), "x")
 
 
+def rect(x, y, w, h):
+    return np.array([[x - w / 2, y - h / 2], [x + w / 2, y - h / 2], [x + w / 2, y + h / 2],
+                     [x - w / 2, y + h / 2]])
+
+
 def test_footprint_distance():
-    # a 2 m x 1 m item turned by 90 degrees: 1 m along y, 0.5 m along x from its centre
-    assert footprint_distance(0.0, 0.9, 0.0, 0.0, math.pi / 2, 2.0, 1.0) == 0.0
-    assert footprint_distance(0.8, 0.0, 0.0, 0.0, math.pi / 2, 2.0, 1.0) == \
-        pytest.approx(0.3)
-    assert footprint_distance(0.8, 1.4, 0.0, 0.0, math.pi / 2, 2.0, 1.0) == \
-        pytest.approx(0.5)
+    item = rect(0.0, 0.0, 1.0, 2.0)  # 1 m along x, 2 m along y
+    assert footprint_distance(0.0, 0.9, item) == 0.0
+    assert footprint_distance(0.8, 0.0, item) == pytest.approx(0.3)
+    assert footprint_distance(0.8, 1.4, item) == pytest.approx(0.5)
 
 
 def test_score_items():
     labels = [{"position_m": [1.0, 1.0], "label": "chair"},
               {"position_m": [3.0, 1.0], "label": "bench"},
               {"position_m": [5.0, 1.2], "label": "chair"}]
-    items = [("c1", "chair", 1.5, 1.0, 0.0, 0.6, 0.6), ("b", "bench", 3.0, 1.8, 0.0, 1.0, 0.4),
-             ("s", "shelf", 5.0, 1.0, 0.0, 0.2, 0.2), ("far", "chair", 9.0, 9.0, 0.0, 1.0, 1.0)]
+    items = [("c1", "chair", rect(1.5, 1.0, 0.6, 0.6)), ("b", "bench", rect(3.0, 1.8, 1.0, 0.4)),
+             ("s", "shelf", rect(5.0, 1.0, 0.2, 0.2)), ("far", "chair", rect(9.0, 9.0, 1, 1))]
     s = {i.name: i for i in score_items(items, labels, 0.5)}
     assert s["c1"].correct and s["c1"].distance_m == pytest.approx(0.2)
     assert not s["b"].correct and s["b"].found == ""         # 0.6 m away
     assert not s["s"].correct and s["s"].found == "chair"    # wrong label
     assert not s["far"].correct
+
+
+def test_world_items_in_the_map_frame():
+    class Obj:
+        def __init__(self, name, kind, footprint, type_="furniture"):
+            self.name, self.kind, self.footprint, self.type = name, kind, footprint, type_
+
+    class World:
+        objects = [Obj("c", "chair", rect(6.0, 4.0, 0.5, 0.5)),
+                   Obj("d", "desk", rect(1.0, 1.0, 1.0, 1.0)),
+                   Obj("p", "chair", rect(0.0, 0.0, 0.1, 0.1), "poster")]
+
+    # the map's origin at (5, 3) in the world, its x axis along the world's +y
+    (item,) = world_items(World(), ["chair", "bench"], (5.0, 3.0, math.pi / 2))
+    assert item[:2] == ("c", "chair")
+    np.testing.assert_allclose(item[2].mean(axis=0), (1.0, -1.0), atol=1e-12)
 
 
 def test_recognizer_prior_over_classes():

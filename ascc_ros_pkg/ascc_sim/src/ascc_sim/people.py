@@ -76,6 +76,11 @@ class ScriptedPerson:
             self._final = PersonState(first.x, first.y, yaw, 0.0, first.activity or "stand")
 
     @property
+    def end_s(self) -> float:
+        """Simulation time [s] at which the route (its first loop) is done."""
+        return self._end_s
+
+    @property
     def cycle_s(self) -> float:
         """Duration of one loop of the route [s] (0 when it does not move)."""
         return self._cycle_s

@@ -47,6 +47,9 @@ class LocationParams:
                                     "(5.5: 20 cm)", ge=0.0)
     object_half_size_m: float = param(0.25, "[m] half the side of the square object at the "
                                       "person's location", ge=0.0)
+    wall_min_cover: float = param(0.0, "a side is beside a wall when occupied cells in its "
+                                  "band lie along more than this fraction of its length (0: "
+                                  "any cell, the thesis's rule)", ge=0.0, le=1.0)
 
 
 def human_location(x_r: float, y_r: float, theta_r: float, range_m: float,
@@ -91,11 +94,51 @@ def side_walls(occupied: np.ndarray, resolution: float,
     out = np.zeros((4, h, w), dtype=bool)
     if band == 0:
         return out
+    if params.wall_min_cover > 0.0:
+        return _covered_sides(pad, reach, half, band, (h, w), params.wall_min_cover)
     # +x: columns (cx+half, cx+half+band], rows [cy-half, cy+half]; the others alike
     out[0] = _box_sums(integral, cy - half, cy + half + 1, cx + half + 1, cx + reach + 1) > 0
     out[1] = _box_sums(integral, cy - half, cy + half + 1, cx - reach, cx - half) > 0
     out[2] = _box_sums(integral, cy + half + 1, cy + reach + 1, cx - half, cx + half + 1) > 0
     out[3] = _box_sums(integral, cy - reach, cy - half, cx - half, cx + half + 1) > 0
+    return out
+
+
+def _covered_sides(pad: np.ndarray, reach: int, half: int, band: int, shape,
+                   min_cover: float) -> np.ndarray:
+    """`side_walls` with ``wall_min_cover``: per side, the fraction of its 2 half + 1 cells
+    (rows for the x sides, columns for the y sides) whose line out through the band meets
+    an occupied cell, > ``min_cover``. Cumulative sums only (no per-cell loop)."""
+    h, w = shape
+    n = 2 * half + 1
+    # hit_x[r, c]: an occupied cell in row r, columns (c, c + band]; hit_xm: [c - band, c)
+    cs = np.zeros((pad.shape[0], pad.shape[1] + 1), dtype=np.int32)
+    cs[:, 1:] = pad.cumsum(1)
+    c = np.arange(pad.shape[1])
+    hit_xp = (cs[:, np.minimum(c + band + 1, pad.shape[1])] - cs[:, c + 1]) > 0
+    hit_xm = (cs[:, c] - cs[:, np.maximum(c - band, 0)]) > 0
+    rs = np.zeros((pad.shape[0] + 1, pad.shape[1]), dtype=np.int32)
+    rs[1:, :] = pad.cumsum(0)
+    r = np.arange(pad.shape[0])
+    hit_yp = (rs[np.minimum(r + band + 1, pad.shape[0]), :] - rs[r + 1, :]) > 0
+    hit_ym = (rs[r, :] - rs[np.maximum(r - band, 0), :]) > 0
+    iy, ix = np.mgrid[0:h, 0:w]
+    cy, cx = iy + reach, ix + reach
+
+    def run_sum(hit, axis):  # number of hits over the side's n cells along ``axis``
+        cum = np.zeros((hit.shape[0] + (axis == 0), hit.shape[1] + (axis == 1)), np.int32)
+        if axis == 0:
+            cum[1:, :] = hit.cumsum(0)
+            return lambda rows, cols: cum[rows + half + 1, cols] - cum[rows - half, cols]
+        cum[:, 1:] = hit.cumsum(1)
+        return lambda rows, cols: cum[rows, cols + half + 1] - cum[rows, cols - half]
+
+    out = np.zeros((4, h, w), dtype=bool)
+    # +x side: column cx + half, its rows cy - half .. cy + half
+    out[0] = run_sum(hit_xp, 0)(cy, cx + half) / n > min_cover
+    out[1] = run_sum(hit_xm, 0)(cy, cx - half) / n > min_cover
+    out[2] = run_sum(hit_yp, 1)(cy + half, cx) / n > min_cover
+    out[3] = run_sum(hit_ym, 1)(cy - half, cx) / n > min_cover
     return out
 
 

@@ -283,28 +283,23 @@ class ItemScore:
     correct: bool = False
 
 
-def footprint_distance(px: float, py: float, x: float, y: float, yaw: float,
-                       size_x: float, size_y: float) -> float:
-    """[m] from the point (px, py) to the rectangle of ``size_x`` x ``size_y`` [m] centred
-    at (x, y), its x side along ``yaw`` [rad] (0 inside it)."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    dx, dy = px - x, py - y
-    u, v = c * dx + s * dy, -s * dx + c * dy
-    return math.hypot(max(abs(u) - size_x / 2.0, 0.0), max(abs(v) - size_y / 2.0, 0.0))
+def footprint_distance(px: float, py: float, footprint: np.ndarray) -> float:
+    """[m] from the point (px, py) to the polygon ``footprint`` ((N, 2) [m]; 0 inside)."""
+    contour = np.asarray(footprint, dtype=np.float32).reshape(-1, 1, 2)
+    return max(0.0, -float(cv2.pointPolygonTest(contour, (float(px), float(py)), True)))
 
 
-def score_items(items: Sequence[Tuple[str, str, float, float, float, float, float]],
-                labels: Sequence[dict], radius_m: float = 0.5) -> List[ItemScore]:
-    """Per item (name, expected furniture, x, y [m], yaw [rad], size_x, size_y [m]): the
-    label nearest its footprint (dicts with ``position_m`` and ``label``, as in
+def score_items(items: Sequence[Tuple[str, str, np.ndarray]], labels: Sequence[dict],
+                radius_m: float = 0.5) -> List[ItemScore]:
+    """Per item (name, expected furniture, footprint polygon (N, 2) [m]): the label
+    nearest its footprint (dicts with ``position_m`` and ``label``, as in
     `SemanticMap.labels_doc`); correct when it lies within ``radius_m`` of the footprint
     and names the expected furniture."""
     out = []
-    for name, expected, x, y, yaw, sx, sy in items:
+    for name, expected, footprint in items:
         s = ItemScore(name, expected)
         for lab in labels:
-            d = footprint_distance(lab["position_m"][0], lab["position_m"][1], x, y, yaw,
-                                   sx, sy)
+            d = footprint_distance(lab["position_m"][0], lab["position_m"][1], footprint)
             if d < s.distance_m:
                 s.distance_m, s.found = d, lab["label"]
         if s.distance_m > radius_m:
@@ -312,3 +307,16 @@ def score_items(items: Sequence[Tuple[str, str, float, float, float, float, floa
         s.correct = bool(s.found) and s.found == expected
         out.append(s)
     return out
+
+
+def world_items(world, furniture: Sequence[str],
+                frame=(0.0, 0.0, 0.0)) -> List[Tuple[str, str, np.ndarray]]:
+    """The furniture of an ascc_sim world whose kind is one of ``furniture`` (the label
+    it should get), as `score_items` takes them, in a map frame whose origin lies at
+    ``frame`` (x, y [m], yaw [rad]) in the world (a mapper's map starts at the robot's
+    start pose)."""
+    x0, y0, yaw = frame
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, s], [-s, c]])  # world -> map
+    return [(o.name, o.kind, (np.asarray(o.footprint) - (x0, y0)) @ rot.T)
+            for o in world.objects if o.type == "furniture" and o.kind in furniture]

@@ -21,6 +21,7 @@ the trained recognizer (joblib), ``--table`` the P(O|A) table (YAML).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -219,7 +220,10 @@ def main(argv: Optional[List[str]] = None) -> int:
         print("%-14s" % name + "".join("%8.3f" % v for v in row))
     if args.out:
         import joblib
-        joblib.dump(rec, args.out)
+        folder = os.path.dirname(os.path.abspath(args.out))
+        os.makedirs(folder, exist_ok=True)
+        joblib.dump(rec, args.out + ".part")
+        os.replace(args.out + ".part", args.out)  # a waiting node never reads half a file
         print("recognizer saved to %s" % args.out)
     if args.table:
         import yaml
