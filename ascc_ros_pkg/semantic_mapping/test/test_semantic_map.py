@@ -72,6 +72,39 @@ def test_fusion_at_the_person_location_by_eq_5_2():
     assert lab2.updates == 2 and not lab2.returned
 
 
+def test_location_type_from_the_newest_map():
+    """A wall mapped after the observations (the person hid it) changes the grid's CL and
+    its belief becomes eq. 5.2 over the same observations with the new CL."""
+    sm = make()
+    x, y = 1.0, 0.5
+    for k in range(3):
+        stay(sm, 3.0 * k, 3.0 * k + 3.0, x, y)
+        lab = sm.observe(3.0 * k + 3.0, ["lying", "sitting", "lying"][k]).label
+    assert lab.location_type == 1
+    grid, info = room()
+    ix, _ = info.world_to_cell(x + 0.4, y)
+    grid[:, ix] = OCCUPIED                      # a wall 0.4 m east of the person
+    sm.set_map(grid, info)
+    assert lab.location_type == 2
+    m = sm.models
+    p_o_f = observation_given_furniture(m.observation, m.activity)
+    b = np.full(len(m.furniture), 1.0 / len(m.furniture))
+    for act in ("lying", "sitting", "lying"):
+        b = b * p_o_f[m.activities.index(act)] * m.location[1]
+        b /= b.sum()
+    np.testing.assert_allclose(lab.belief, b)
+    assert lab.label == m.furniture[int(np.argmax(b))]
+
+
+def test_many_observations_do_not_underflow():
+    sm = make()
+    for k in range(400):
+        sm.track(0.5 * k, 0.5, 0.5)
+        lab = sm.observe(0.5 * k, "sitting" if k % 4 else "lying").label
+    assert np.isfinite(lab.belief).all() and lab.belief.sum() == pytest.approx(1.0)
+    assert lab.updates == 400 and lab.belief.max() > 0.999
+
+
 def test_location_is_the_median_over_the_window():
     sm = make(window_s=2.0)
     stay(sm, 0.0, 5.0, 2.0, 1.0)        # earlier, elsewhere: outside the window

@@ -38,6 +38,8 @@ class SimulatorParams:
                                             "opened their links, at most this long")
     wait_for_scan_subscribers: bool = param(False, "also hold it until every scan has a "
                                                    "subscriber")
+    wait_for_publishers: str = param("", "also hold it until each of these topics "
+                                         "(space-separated) has a publisher")
     max_sim_time_s: float = param(0.0, "[s] stop after this much simulated time; 0: never")
     stats_file: str = param("", "write run statistics (JSON) there at the end")
     ground_truth_rate_hz: float = param(20.0, "[Hz] ground truth poses, people", gt=0.0)

@@ -9,7 +9,7 @@ it).
                             location is the median of the tracked locations over the
                             window; its semantic grid G = g([X, Y]) and location type CL
                             (occupancy map, 20 cm wall threshold) fuse into P_{G,t}(F)
-                            (eq. 5.1-5.3, `fusion.GridBeliefs`)
+                            (eq. 5.1-5.3)
     labels                  one `Label` per fused grid: MAP furniture, belief, entropy,
                             the "returned" flag of 5.6
     room_belief / activity_prior   P_t(R) of 5.5 and the activity prior it feeds back
@@ -23,6 +23,14 @@ Semantic grid. Cells of ``grid_resolution_m`` anchored at the map frame's origin
 occupancy map grows while it is built; the semantic cells do not move with it). A label's
 position is the mean of the person's locations fused at its grid (inside its cell; the
 cell's centre would add up to 0.7 x ``grid_resolution_m`` of rounding).
+
+Location type on the newest map. The robot's map grows while the person is at the
+furniture, and the person hides what is behind them (the bench's face is mapped only
+once they get up). So CL of a grid is C(L_h) on the newest map at the mean of its fused
+locations, and its belief is eq. 5.2 over all its observations with that CL:
+P_{G,t}(F) ∝ P_{G,0}(F) prod_k P(O_k|F) P(CL_G|F) (log space), recomputed by `set_map`.
+With one CL throughout this is exactly the sequential eq. 5.2 (tested against
+`fusion.posterior`).
 
 Revisits (5.6). A label is *left* once the person is tracked farther than
 ``leave_distance_m`` from its cell's centre; a fused observation at a left label's grid
@@ -45,7 +53,7 @@ from ascc_common.grid import FREE, OCCUPIED, GridInfo
 from ascc_common.map_io import save_map
 from ascc_common.params import nested, param
 
-from .fusion import GridBeliefs, activity_prior, room_belief
+from .fusion import activity_prior, entropy, map_label, observation_given_furniture, room_belief
 from .location import LocationParams, grid_index, location_type_at
 from .models import Models
 
@@ -73,8 +81,8 @@ class SemanticMapperParams:
     body_radius_m: float = param(0.15, "[m] added to the target's range: the laser's range "
                                  "is the body's near surface, the location its centre",
                                  ge=0.0)
-    target_max_age_s: float = param(0.5, "[s] Target messages older than this are ignored",
-                                    gt=0.0)
+    target_max_age_s: float = param(10.0, "[s] Target messages older than this are ignored "
+                                    "(each is placed by TF at its own stamp)", gt=0.0)
     base_frame: str = param("base_link", "the robot frame of the Target messages")
     map_frame: str = param("map", "the occupancy map's frame")
     output_dir: str = param("", "where ~save and shutdown write the semantic map (empty: "
@@ -97,8 +105,9 @@ class Label:
     belief: np.ndarray       # P_{G,t}(F)
     entropy_bits: float
     information_bits: float  # of the last update
-    location_type: int       # CL (1..5) of the last update
+    location_type: int       # CL (1..5) on the newest map
     updates: int = 0
+    counts: Optional[np.ndarray] = None  # observations per activity O
     left: bool = False       # the person went farther than leave_distance_m since
     returned: bool = False   # came back after leaving (5.6)
     sum_x: float = 0.0       # [m] of the fused locations
@@ -121,7 +130,10 @@ class SemanticMap:
     def __init__(self, models: Models, params: SemanticMapperParams):
         self.models = models
         self.p = params
-        self.beliefs = GridBeliefs(models)
+        p_o_f = observation_given_furniture(models.observation, models.activity)
+        with np.errstate(divide="ignore"):
+            self.log_o_f = np.log(p_o_f)            # [o, f]
+            self.log_cl_f = np.log(models.location)  # [cl, f]
         self.labels: Dict[Tuple[int, int], Label] = {}
         self.track_log: Deque[Tuple[float, float, float]] = deque()
         self.grid: Optional[np.ndarray] = None
@@ -133,6 +145,11 @@ class SemanticMap:
         """The occupancy map (``grid[iy, ix]``, ascc_common.grid values)."""
         info.check_axis_aligned()
         self.grid, self.info = np.asarray(grid), info
+        for lab in self.labels.values():
+            try:
+                self._fuse(lab)
+            except ValueError:
+                pass  # the label left the map (a new map of another place): kept as it was
 
     def track(self, t: float, x: float, y: float) -> None:
         """The person is at (x, y) [m] at time t [s]."""
@@ -182,22 +199,38 @@ class SemanticMap:
             grid_index(self.info, x, y)
         except ValueError as err:
             raise LocationError("the person's %s" % err) from err
-        cl = location_type_at(self.grid, self.info, self.p.location, x, y)
         g = self.cell(x, y)
-        up = self.beliefs.update(g, o, cl - 1)
         lab = self.labels.get(g)
         if lab is None:
-            lab = self.labels[g] = Label(g, x, y, "", up.belief, 0.0, 0.0, cl)
+            n = len(self.models.furniture)
+            lab = self.labels[g] = Label(g, x, y, "", np.full(n, 1.0 / n), math.log2(n),
+                                         0.0, 0, counts=np.zeros(len(self._index), int))
         elif lab.left:
             lab.returned = True
         lab.left = False
-        lab.label = self.models.furniture[up.label]
-        lab.belief, lab.entropy_bits = up.belief, up.entropy_bits
-        lab.information_bits, lab.location_type = up.information_bits, cl
+        h_before = lab.entropy_bits
+        lab.counts[o] += 1
         lab.updates += 1
         lab.sum_x, lab.sum_y = lab.sum_x + x, lab.sum_y + y
         lab.x, lab.y = lab.sum_x / lab.updates, lab.sum_y / lab.updates
+        self._fuse(lab)
+        lab.information_bits = h_before - lab.entropy_bits
         return Observed(label=lab)
+
+    def _fuse(self, lab: Label) -> None:
+        """The grid's belief from its observations and its CL on the newest map."""
+        cl = location_type_at(self.grid, self.info, self.p.location, lab.x, lab.y)
+        with np.errstate(invalid="ignore"):
+            log_p = lab.counts @ np.where(lab.counts[:, None] > 0, self.log_o_f, 0.0) \
+                + lab.updates * self.log_cl_f[cl - 1]
+        if not np.isfinite(log_p).any():
+            raise LocationError("the observations at (%.2f, %.2f) are impossible under the "
+                                "models at location type %d" % (lab.x, lab.y, cl))
+        belief = np.exp(log_p - log_p.max())
+        lab.belief = belief / belief.sum()
+        lab.location_type = cl
+        lab.label = self.models.furniture[map_label(lab.belief)]
+        lab.entropy_bits = entropy(lab.belief)
 
     # -- outputs --------------------------------------------------------------------------
     def room_belief(self) -> np.ndarray:

@@ -48,6 +48,7 @@ class SimulatorNode:
         self.stats_file = p.stats_file
         self.wait_drivers_s = p.wait_for_drivers_s
         self.wait_scans = p.wait_for_scan_subscribers
+        self.wait_topics = [rospy.resolve_name(t) for t in p.wait_for_publishers.split()]
         self.model = p.robot
         self.laser_cfg = p.laser
 
@@ -160,8 +161,11 @@ class SimulatorNode:
     def wait_ready(self):
         """Hold the clock at 0 until every driver has opened its link and sent its start
         sequence (and, if asked, every scan has a subscriber), at most
-        ~wait_for_drivers_s of wall time: simulated time starts when the robots listen."""
+        ~wait_for_drivers_s of wall time: simulated time starts when the robots listen.
+        ~wait_for_publishers: also until those topics are published (e.g. a node that
+        first loads a model)."""
         deadline = time.monotonic() + self.wait_drivers_s
+        published, asked = set(), 0.0
         while not rospy.is_shutdown():
             for link in self.links.values():
                 link.pump()
@@ -169,6 +173,10 @@ class SimulatorNode:
             if self.wait_scans:
                 missing += ["a subscriber of %s" % p.resolved_name
                             for p in self.scan_pubs.values() if not p.get_num_connections()]
+            if self.wait_topics and time.monotonic() - asked > 0.5:
+                asked = time.monotonic()
+                published = {t for t, _ in rospy.get_published_topics()}
+            missing += ["a publisher of %s" % t for t in self.wait_topics if t not in published]
             if not missing:
                 return
             if time.monotonic() > deadline:

@@ -66,12 +66,18 @@ class SemanticMapperNode:
 
     # -- inputs ---------------------------------------------------------------------------
     def on_map(self, msg):
+        """A new map: every label's location type (and so its belief) on it."""
         try:
             grid, info = map_from_msg(msg)
             with self.lock:
+                before = [(lab.label, lab.location_type) for lab in self.map.labels.values()]
                 self.map.set_map(grid, info)
+                after = [(lab.label, lab.location_type) for lab in self.map.labels.values()]
         except ValueError as err:
             self.warn("map", "map ignored: %s" % err)
+            return
+        if after != before:
+            self.publish(msg.header.stamp)
 
     def on_target(self, msg):
         if msg.header.frame_id.lstrip("/") != self.p.base_frame:
