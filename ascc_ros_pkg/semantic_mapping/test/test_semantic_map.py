@@ -116,6 +116,18 @@ def test_location_is_the_median_over_the_window():
     assert sm.observe(8.0, "lying").label.grid == (2, 2)
 
 
+def test_a_location_near_a_label_is_fused_there():
+    sm = make(associate_m=0.25)
+    stay(sm, 0.0, 3.0, 0.49, 0.5)                # cell (1, 2)
+    first = sm.observe(3.0, "sitting").label
+    stay(sm, 3.0, 6.0, 0.51, 0.5)                # cell (2, 2), 0.02 m away
+    assert sm.observe(6.0, "sitting").label is first
+    assert first.grid == (1, 2) and first.updates == 2 and first.x == pytest.approx(0.5)
+    stay(sm, 6.0, 9.0, 0.9, 0.5)                 # 0.4 m away: a grid of its own
+    other = sm.observe(9.0, "sitting").label
+    assert other is not first and other.grid == (3, 2)
+
+
 def test_skipped_activities_update_nothing():
     sm = make()
     stay(sm, 0.0, 3.0, 0.5, 0.5)

@@ -20,7 +20,9 @@ one place). Refused with `LocationError` (the node reports it): no location in t
 a location outside the occupancy map, no map yet.
 
 Semantic grid. Cells of ``grid_resolution_m`` anchored at the map frame's origin (the
-occupancy map grows while it is built; the semantic cells do not move with it). A label's
+occupancy map grows while it is built; the semantic cells do not move with it). A
+location within ``associate_m`` of a labelled grid's location is fused there (the person
+sitting on a cell border would otherwise split one item into two labels). A label's
 position is the mean of the person's locations fused at its grid (inside its cell; the
 cell's centre would add up to 0.7 x ``grid_resolution_m`` of rounding).
 
@@ -75,6 +77,9 @@ class SemanticMapperParams:
     max_spread_m: float = param(0.5, "[m] an activity during which the tracked location "
                                 "spread more than this (the person walked) is not fused",
                                 gt=0.0)
+    associate_m: float = param(0.25, "[m] a location this close to a label's location "
+                               "is fused at that label's grid (a person sitting on a cell "
+                               "border makes one label, not two)", ge=0.0)
     leave_distance_m: float = param(1.0, "[m] the person this far from a label has left it "
                                     "(a later visit is a return)", gt=0.0)
     target_kind: str = param("shirt", "the detection kind that is the person")
@@ -183,6 +188,16 @@ class SemanticMap:
         r = self.p.grid_resolution_m
         return (g[0] + 0.5) * r, (g[1] + 0.5) * r
 
+    def associate(self, x: float, y: float) -> Tuple[int, int]:
+        """The grid of a location: the labelled grid whose location is nearest, if within
+        ``associate_m``; else G = g([X, Y])."""
+        best, best_d = None, self.p.associate_m
+        for g, lab in self.labels.items():
+            d = math.hypot(lab.x - x, lab.y - y)
+            if d <= best_d:
+                best, best_d = g, d
+        return best if best is not None else self.cell(x, y)
+
     def observe(self, t: float, activity: str) -> Observed:
         """Fuse the activity recognized over the window ending at ``t`` [s]."""
         if activity == UNKNOWN:
@@ -199,7 +214,7 @@ class SemanticMap:
             grid_index(self.info, x, y)
         except ValueError as err:
             raise LocationError("the person's %s" % err) from err
-        g = self.cell(x, y)
+        g = self.associate(x, y)
         lab = self.labels.get(g)
         if lab is None:
             n = len(self.models.furniture)
