@@ -30,6 +30,7 @@ from irobot_create_2_1.virtual_create import VirtualCreateParams
 from semantic_mapping.activity import RecognizerNodeParams
 from semantic_mapping.emulator import EmulatorParams
 from semantic_mapping.location import LocationParams
+from semantic_mapping.semantic_map import SemanticMapperParams
 from semantic_mapping.wearable import ReceiverParams
 from target_follower.camera_driver import Q24CameraParams
 from target_follower.color_detector import ColorParams
@@ -61,7 +62,8 @@ TABLES = {
                                              GestureNodeParams, GestureControlNodeParams,
                                              OperatorGuiParams],
     "ascc_ros_pkg/semantic_mapping/README.md": [LocationParams, ReceiverParams,
-                                                 EmulatorParams, RecognizerNodeParams],
+                                                 EmulatorParams, RecognizerNodeParams,
+                                                 SemanticMapperParams],
     "ascc_ros_pkg/web_console/README.md": [WebConsoleParams],
 }
 
