@@ -286,7 +286,9 @@ class SemanticMap:
         with open(base + "_labels.yaml", "w", encoding="utf-8") as f:
             yaml.safe_dump(self.labels_doc(), f, sort_keys=False)
         png = base + ".png"
-        if not cv2.imwrite(png, draw_labels(self.grid, self.info, self.labels.values())):
+        if not cv2.imwrite(png, draw_labels(self.grid, self.info, self.labels.values(),
+                                            furniture=self.models.furniture,
+                                            crop_margin_m=0.5)):
             raise OSError("cannot write %s" % png)
         return {"yaml": base + ".yaml", "pgm": pgm, "labels": base + "_labels.yaml",
                 "png": png}
@@ -297,9 +299,23 @@ COLOURS = [(40, 40, 220), (200, 120, 0), (0, 150, 0), (180, 0, 180), (0, 140, 22
 
 
 def draw_labels(grid: np.ndarray, info: GridInfo, labels, scale: int = 4,
-                furniture: Sequence[str] = ()) -> np.ndarray:
-    """A BGR image of the map (free white, occupied black, unknown grey), north up, with a
-    dot and the text of every label."""
+                furniture: Sequence[str] = (), crop_margin_m: Optional[float] = None
+                ) -> np.ndarray:
+    """A BGR image of the map (free white, occupied black, unknown grey), the map's +y up,
+    with a dot and the text of every label; ``crop_margin_m``: only the known cells and
+    the labels, with this margin [m]."""
+    labels = list(labels)
+    x0, y0, x1, y1 = 0, 0, grid.shape[1], grid.shape[0]
+    if crop_margin_m is not None:
+        iy, ix = np.nonzero((grid == FREE) | (grid == OCCUPIED))
+        cells = [info.world_to_cell(lab.x, lab.y) for lab in labels]
+        ix = np.concatenate([ix, [c[0] for c in cells]]).astype(int)
+        iy = np.concatenate([iy, [c[1] for c in cells]]).astype(int)
+        if ix.size:
+            m = int(round(crop_margin_m / info.resolution))
+            x0, x1 = max(ix.min() - m, 0), min(ix.max() + m + 1, grid.shape[1])
+            y0, y1 = max(iy.min() - m, 0), min(iy.max() + m + 1, grid.shape[0])
+    grid = grid[y0:y1, x0:x1]
     img = np.full(grid.shape, 205, dtype=np.uint8)
     img[grid == FREE] = 254
     img[grid == OCCUPIED] = 0
@@ -308,8 +324,8 @@ def draw_labels(grid: np.ndarray, info: GridInfo, labels, scale: int = 4,
     img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
     names = list(furniture)
     for lab in labels:
-        u = (lab.x - info.origin_x) / info.resolution * scale
-        v = img.shape[0] - (lab.y - info.origin_y) / info.resolution * scale
+        u = (lab.x - info.origin_x) / info.resolution * scale - x0 * scale
+        v = img.shape[0] - ((lab.y - info.origin_y) / info.resolution - y0) * scale
         if lab.label not in names:
             names.append(lab.label)
         colour = COLOURS[names.index(lab.label) % len(COLOURS)]
