@@ -75,7 +75,8 @@ def run_one(world, seed, out, model, port):
 
 
 def summarise(rows, world):
-    names = [o.name for o in world.objects if o.type == "furniture"]
+    names = [o.name for o in world.objects if o.type == "furniture"
+             and any(o.name in r.get("items", {}) for r in rows)]
     print("\n%-5s %s  %s" % ("seed", "  ".join("%-22s" % n for n in names), "stray labels"))
     correct = {n: 0 for n in names}
     runs = 0
@@ -96,11 +97,11 @@ def summarise(rows, world):
                                                      it["distance_m"])))
         print("%-5d %s  %s" % (r["seed"], "  ".join(cells), ", ".join(r["stray"]) or "-"))
         returned = [t for t, _, _ in r["labels"] if t.endswith("->returned")]
-        print("      returned: %s" % (", ".join(returned) or "-"))
+        print("      returned: %s; %d labels, %.0f s wall" % (", ".join(returned) or "-",
+                                                             len(r["labels"]), r["wall_s"]))
     print("correct in runs: " + ", ".join("%s %d/%d" % (n, correct[n], runs)
                                           for n in names if n in correct))
-    goal = runs >= 5 and all(correct[n] >= runs - 1 for n in names
-                             if any(n in r.get("items", {}) for r in rows))
+    goal = runs >= 5 and all(correct[n] >= runs - 1 for n in names)
     print("goal (every item correct in >= 4 of 5 seeds): %s" % ("met" if goal else
                                                                   "not met"))
 
