@@ -19,6 +19,7 @@ from ascc_common.grid import GridInfo
 from ascc_common.params import nested, param
 from ascc_common.pose2d import compose, inverse, relative
 from ascc_navigation.laser import LaserMount, prepare_scan
+from ascc_navigation.posegraph import LoopClosureConfig, LoopResult, PoseGraph, rebuild_counts
 from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
 
 
@@ -47,6 +48,7 @@ class MapperConfig:
     odom_jump_speed_mps: float = param(1.0, "[m/s] a longer step is still motion if slower "
                                        "than this (not gmapping)", ge=0.0)
     rbpf: RbpfConfig = nested(RbpfConfig)
+    loop: LoopClosureConfig = nested(LoopClosureConfig)
 
 
 @dataclass
@@ -97,12 +99,14 @@ RESET = "reset"          # time went backwards: everything restarted with this s
 class Outcome:
     """What ``handle_scan`` did. ``reason`` is a human-readable sentence for warnings."""
 
-    __slots__ = ("status", "reason", "stats")
+    __slots__ = ("status", "reason", "stats", "loop")
 
-    def __init__(self, status: str, reason: str = "", stats: Optional[UpdateStats] = None):
+    def __init__(self, status: str, reason: str = "", stats: Optional[UpdateStats] = None,
+                 loop: Optional[LoopResult] = None):
         self.status = status
         self.reason = reason
         self.stats = stats
+        self.loop = loop  # the pose graph's loop search at this update, if any
 
     @property
     def map_changed(self) -> bool:
@@ -142,6 +146,8 @@ class SlamMapper:
 
     def _reset_state(self) -> None:
         self.slam = RbpfSlam(self.cfg.rbpf, seed=self.seed)
+        self.graph = PoseGraph(self.cfg.loop, hit_offset=0.5 * self.cfg.rbpf.delta)
+        self.keyframe_odom: Optional[np.ndarray] = None  # odometry at the last keyframe
         self.last_stamp: Optional[float] = None      # newest scan seen [s]
         self.last_odom: Optional[np.ndarray] = None  # odometry at the newest scan seen
         self.update_odom: Optional[np.ndarray] = None  # odometry at the last filter update
@@ -182,6 +188,7 @@ class SlamMapper:
                 return Outcome(REJECTED, "no beam of the first scan returned within maxUrange")
             stats = self.slam.start(odom_pose, prepared)
             self._mark_update(scan.stamp, odom_pose)
+            self._add_keyframe(odom_pose, prepared)
             return Outcome(RESET if reset_reason else STARTED, reset_reason, stats)
         step = relative(previous_odom, odom_pose)
         jump = math.hypot(step[0], step[1])
@@ -191,6 +198,9 @@ class SlamMapper:
             # have driven that far since the previous scan: re-anchor, as if it had not moved.
             # (A long step after a long gap, e.g. scans dropped for late TF, is motion.)
             self.update_odom = compose(odom_pose, relative(previous_odom, self.update_odom))
+            if self.keyframe_odom is not None:
+                self.keyframe_odom = compose(odom_pose, relative(previous_odom,
+                                                                 self.keyframe_odom))
             return Outcome(REJECTED, "odometry jumped by %.2f m in %.2f s between two scans "
                            "(more than odom_jump_m, faster than odom_jump_speed_mps): motion "
                            "ignored" % (jump, gap))
@@ -203,8 +213,23 @@ class SlamMapper:
         prepared = self._prepare(scan, mount)
         stats = self.slam.update(relative(self.update_odom, odom_pose), prepared)
         self._mark_update(scan.stamp, odom_pose)
+        loop = self._add_keyframe(odom_pose, prepared) if prepared.usable else None
         return Outcome(UPDATED, "" if prepared.usable else
-                       "no beam returned within maxUrange: odometry only", stats)
+                       "no beam returned within maxUrange: odometry only", stats, loop)
+
+    def _add_keyframe(self, odom_pose: np.ndarray, prepared) -> Optional[LoopResult]:
+        """Keyframe for the pose graph (filter's best pose, this scan); on a loop closure
+        the map is rebuilt from the corrected keyframes and the filter continues on it."""
+        if not self.cfg.loop.enabled:
+            return None
+        delta = (np.zeros(3) if self.keyframe_odom is None
+                 else relative(self.keyframe_odom, odom_pose))
+        self.keyframe_odom = odom_pose
+        loop = self.graph.add_keyframe(self.slam.best_pose, prepared, delta)
+        if loop.status == "closed":
+            maps = rebuild_counts(self.slam.new_maps, self.graph.poses, self.graph.scans)
+            self.slam.restart(self.graph.poses[-1], maps)
+        return loop
 
     def _prepare(self, scan: ScanInput, mount: LaserMount):
         delta = self.cfg.rbpf.delta

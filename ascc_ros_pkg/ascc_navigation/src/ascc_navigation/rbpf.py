@@ -457,6 +457,22 @@ class RbpfSlam:
         self.updates = 1
         return stats
 
+    def restart(self, pose, maps: ParticleMaps) -> None:
+        """Continue from a map rebuilt elsewhere (the pose graph's loop closure): every
+        particle takes a copy of the one-particle ``maps`` and the pose ``pose``, with equal
+        weights (the filter's diversity restarts from there)."""
+        n = self.cfg.particles
+        self.maps.info = maps.info
+        self.maps.hits = np.repeat(maps.hits[:1], n, axis=0)
+        self.maps.visits = np.repeat(maps.visits[:1], n, axis=0)
+        self.poses[:] = np.asarray(pose, dtype=float)
+        self.log_w[:] = 0.0
+        self.best = 0
+
+    def new_maps(self) -> ParticleMaps:
+        """An empty one-particle map on the current grid geometry."""
+        return ParticleMaps(1, self.maps.info)
+
     def update(self, odom_delta, scan: PreparedScan) -> UpdateStats:
         """One filter step: the robot moved by ``odom_delta`` (dx, dy, dtheta in the previous
         robot frame, from odometry) and then took ``scan``."""

@@ -1,0 +1,468 @@
+"""Loop closure for the mapper: a pose graph of keyframes, scan-to-submap matching and a
+sparse robust least-squares optimisation (no ROS imports).
+
+The particle filter (``rbpf``) corrects the robot's pose only within its matcher's window
+(``search_margin``, 0.5 m) and never moves the past: drift along a long loop stays in the
+map. This module keeps, next to the filter, one keyframe per filter update:
+
+* **node** k: the filter's best pose at update k (base frame in the map frame) and that
+  update's ``PreparedScan`` (base frame; float32 copies);
+* **sequential edge** k-1 -> k: the filter-independent relative motion, from matching scan k
+  against a local submap of the previous ``local_keyframes`` scans placed along this
+  front-end chain, starting from the odometry increment (so a jump of the filter's pose,
+  when its matcher snaps onto old parts of the map, is *not* an edge measurement);
+* **loop edge** j -> k: when the robot is within ``search_radius_m`` of keyframes that lie
+  more than ``min_travel_m`` back along the path, scan k is matched against a submap of those
+  old keyframes' scans at their node poses: a correlative search (likelihood field from
+  ``cv2.distanceTransform``, every (dx, dy, dtheta) of a grid scored at once) refined on a
+  finer grid with bilinear lookups. It is accepted only if the matched share of the beams
+  reaches ``min_score`` and the match is unambiguous: every candidate within
+  ``ambiguity`` of the best score lies within ``max_spread_m`` of it (a featureless
+  corridor, where the scan slides along the walls, is rejected).
+
+With a new loop edge the graph is optimised (``scipy.optimize.least_squares``, sparse
+Jacobian pattern, Huber loss on whitened residuals, node 0 fixed). If the optimisation
+moves any node by more than ``max_correction_m`` the loop edge is removed and nothing
+changes (reported, so the node logs it); if it moves none by more than ``min_correction_m``
+the edge is kept but the map is left as is; otherwise the node poses are replaced and the
+caller rebuilds the map from the corrected keyframes (``rebuild_counts``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+import cv2
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import csr_matrix
+
+from ascc_common.params import param
+from ascc_common.pose2d import compose, relative, wrap_angle
+from ascc_navigation.laser import PreparedScan
+
+
+@dataclass
+class LoopClosureConfig:
+    """Loop-closure parameters (stand-in only; gmapping has none), read by the mapper node
+    as private parameters with these names."""
+
+    enabled: bool = param(True, "pose-graph loop closure on/off", "loop_closure")
+    search_radius_m: float = param(3.0, "[m] old keyframes this close to the current pose "
+                                   "are loop candidates", "loop_search_radius_m", gt=0.0)
+    min_travel_m: float = param(10.0, "[m] candidates lie at least this far back along the "
+                                "path", "loop_min_travel_m", ge=0.0)
+    check_every_m: float = param(1.0, "[m] path between two loop searches",
+                                 "loop_check_every_m", ge=0.0)
+    window_m: float = param(0.6, "[m] loop match searches +- this in x and y",
+                            "loop_window_m", gt=0.0)
+    window_rad: float = param(0.15, "[rad] loop match searches +- this in heading",
+                              "loop_window_rad", ge=0.0)
+    min_score: float = param(0.8, "[share of the beams] a loop match must reach this",
+                             "loop_min_score", gt=0.0, le=1.0)
+    ambiguity: float = param(0.05, "[share of the best score] candidates this close to the "
+                             "best ...", "loop_ambiguity", ge=0.0, le=0.5)
+    max_spread_m: float = param(0.15, "[m] ... must lie within this of it (else ambiguous)",
+                                "loop_max_spread_m", gt=0.0)
+    max_correction_m: float = param(1.5, "[m] a closure moving any keyframe further is "
+                                    "rejected", "loop_max_correction_m", gt=0.0)
+    min_correction_m: float = param(0.03, "[m] a closure moving no keyframe further leaves "
+                                    "the map as is", "loop_min_correction_m", ge=0.0)
+    # Front end and edge uncertainties (not ROS parameters).
+    # sequential match: pull of the position to the odometry's (see correlative_match's
+    # prior); none on the heading, which the walls fix and the odometry's drifts
+    seq_prior_m: float = 0.02         # [m]
+    local_keyframes: int = 20          # scans in the local submap of a sequential match
+    submap_radius_m: float = 4.0      # [m] old keyframes within this of the anchor: submap
+    coarse_step_m: float = 0.05       # [m] = the loop search's likelihood field cell
+    fine_step_m: float = 0.02         # [m] field cell of sequential matches and refinement
+    coarse_step_rad: float = 0.01     # [rad]
+    match_sigma_m: float = 0.05       # [m] end-point score std
+    max_points: int = 400             # matched end points per scan (evenly subsampled)
+    seq_sigma_xy: Tuple[float, float] = (0.01, 0.03)     # [m] + [m/m] std of a sequential edge
+    seq_sigma_theta: Tuple[float, float] = (0.005, 0.01)  # [rad] + [rad/m]
+    loop_sigma_xy: float = 0.05       # [m] std of a loop edge
+    loop_sigma_theta: float = 0.02    # [rad]
+
+
+class LoopResult:
+    """What ``PoseGraph.add_keyframe`` did. ``status``: ``none`` (no loop search or no
+    candidate), ``rejected`` (``reason`` says why), ``kept`` (loop edge added, correction
+    below ``min_correction_m``), ``closed`` (poses corrected: rebuild the map)."""
+
+    __slots__ = ("status", "reason", "correction_m", "anchor", "score")
+
+    def __init__(self, status: str = "none", reason: str = "", correction_m: float = 0.0,
+                 anchor: int = -1, score: float = 0.0):
+        self.status = status
+        self.reason = reason
+        self.correction_m = correction_m
+        self.anchor = anchor
+        self.score = score
+
+    def __repr__(self) -> str:
+        return "LoopResult(%s, %s)" % (self.status, self.reason)
+
+
+class LikelihoodField:
+    """Distance [m] from each cell of a window to the nearest end point of a set of points
+    (world frame), capped; scored by nearest-cell gathers (coarse search) or bilinear
+    interpolation (refinement)."""
+
+    def __init__(self, points: np.ndarray, resolution: float, margin_m: float, cap_m: float):
+        self.res = float(resolution)
+        lo = points.min(axis=0) - margin_m
+        hi = points.max(axis=0) + margin_m
+        self.x0, self.y0 = float(lo[0]), float(lo[1])
+        self.w = int(math.ceil((hi[0] - lo[0]) / self.res)) + 1
+        self.h = int(math.ceil((hi[1] - lo[1]) / self.res)) + 1
+        img = np.full((self.h, self.w), 255, dtype=np.uint8)
+        ix = ((points[:, 0] - self.x0) / self.res).astype(np.int64)
+        iy = ((points[:, 1] - self.y0) / self.res).astype(np.int64)
+        img[iy, ix] = 0
+        dist = cv2.distanceTransform(img, cv2.DIST_L2, cv2.DIST_MASK_5)
+        dist *= np.float32(self.res)
+        np.minimum(dist, np.float32(cap_m), out=dist)
+        self.dist = dist
+
+    def distances(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Bilinear distance [m] at world points (any shape); off-window points clamp."""
+        u = np.clip((x - self.x0) / self.res - 0.5, 0.0, self.w - 1.001)
+        v = np.clip((y - self.y0) / self.res - 0.5, 0.0, self.h - 1.001)
+        iu = u.astype(np.int64)
+        iv = v.astype(np.int64)
+        fu = u - iu
+        fv = v - iv
+        d = self.dist
+        top = d[iv, iu] + fu * (d[iv, iu + 1] - d[iv, iu])
+        bottom = d[iv + 1, iu] + fu * (d[iv + 1, iu + 1] - d[iv + 1, iu])
+        return top + fv * (bottom - top)
+
+
+def _transform(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return np.column_stack([pose[0] + c * pts[:, 0] - s * pts[:, 1],
+                            pose[1] + s * pts[:, 0] + c * pts[:, 1]])
+
+
+def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray,
+                      window_m: float, window_rad: float, step_rad: float, sigma: float,
+                      spread_share: float = 0.95,
+                      prior: Optional[np.ndarray] = None) -> Tuple[np.ndarray, float, float]:
+    """Best pose of the base-frame points ``pts`` (M, 2) in ``field`` within +-window_m,
+    +-window_rad of ``guess``: every candidate of a grid (field cells in x, y; ``step_rad``
+    in heading) scored at once by nearest-cell gathers, then a finer grid around the best
+    with bilinear lookups. Score: mean over points of exp(-d^2 / 2 sigma^2) (1 = perfect).
+    Returns (pose, score, spread): spread [m] is the largest distance from the best
+    translation of a coarse candidate (any heading) scoring at least ``spread_share`` times
+    the best coarse score: large where the scan slides along featureless walls.
+    ``prior`` (w_x, w_y, w_theta): the search maximises score - sum w_k (pose_k - guess_k)^2
+    instead (a pull to the guess, as the filter's ``motion_prior``: a scan in a featureless
+    corridor does not slide along it); the returned score is the plain one."""
+    res = field.res
+    k_xy = max(int(round(window_m / res)), 0)
+    k_th = max(int(round(window_rad / step_rad)), 0) if step_rad > 0 else 0
+    thetas = guess[2] + step_rad * np.arange(-k_th, k_th + 1)
+    c = np.cos(thetas)[:, None]
+    s = np.sin(thetas)[:, None]
+    # end points for every heading, relative to the guess position, in cells
+    px = (guess[0] - field.x0 + c * pts[:, 0] - s * pts[:, 1]) / res
+    py = (guess[1] - field.y0 + s * pts[:, 0] + c * pts[:, 1]) / res
+    ix = np.floor(px).astype(np.int64)  # (T, M)
+    iy = np.floor(py).astype(np.int64)
+    offs = np.arange(-k_xy, k_xy + 1)
+    # pad the field so every shifted index stays inside
+    pad = k_xy + 1
+    padded = np.pad(field.dist, pad, mode="edge")
+    lut = np.exp(-0.5 * (padded.astype(np.float32) / np.float32(sigma)) ** 2)
+    wp = padded.shape[1]
+    ix = np.clip(ix, 0, field.w - 1) + pad
+    iy = np.clip(iy, 0, field.h - 1) + pad
+    base = iy * wp + ix  # (T, M)
+    shift = (offs[:, None] * wp + offs[None, :]).ravel()  # (dy, dx) flattened: (K*K,)
+    flat = lut.ravel()
+    scores = np.empty((thetas.size, shift.size), dtype=np.float32)
+    for t in range(thetas.size):  # one gather of (K*K, M) per heading
+        scores[t] = flat.take(base[t][None, :] + shift[:, None]).mean(axis=1)
+    objective = scores
+    if prior is not None:
+        dxy = (offs * res) ** 2
+        pen = prior[0] * dxy[None, :] + prior[1] * dxy[:, None]  # [dy, dx]
+        objective = scores - (pen.ravel()[None, :]
+                              + prior[2] * (thetas - guess[2])[:, None] ** 2).astype(np.float32)
+    t_best, j_best = np.unravel_index(int(np.argmax(objective)), scores.shape)
+    dy_best, dx_best = divmod(int(j_best), offs.size)
+    best = np.array([guess[0] + offs[dx_best] * res, guess[1] + offs[dy_best] * res,
+                     thetas[t_best]])
+    _, j_near = np.nonzero(scores >= np.float32(spread_share) * scores[t_best, j_best])
+    dy, dx = np.divmod(j_near, offs.size)
+    spread = float(np.max(np.hypot(dx - dx_best, dy - dy_best))) * res
+    best, score = _refine(field, pts, best, res, step_rad, sigma, guess, prior)
+    return best, score, spread
+
+
+def _refine(field: LikelihoodField, pts: np.ndarray, start: np.ndarray, step_m: float,
+            step_rad: float, sigma: float, guess: np.ndarray,
+            prior: Optional[np.ndarray]) -> Tuple[np.ndarray, float]:
+    """Two finer grids (a fifth of the coarse steps, then a fifth again) around ``start``,
+    bilinear scores (and the prior's pull to ``guess``)."""
+    best = start.copy()
+    score = 0.0
+    for level in (1, 2):
+        sm = step_m / 5 ** level
+        sr = step_rad / 5 ** level
+        o = np.arange(-3, 4)
+        dx, dy, dt = np.meshgrid(o * sm, o * sm, o * sr, indexing="ij")
+        cand = best + np.column_stack([dx.ravel(), dy.ravel(), dt.ravel()])
+        c = np.cos(cand[:, 2])[:, None]
+        s = np.sin(cand[:, 2])[:, None]
+        x = cand[:, 0:1] + c * pts[:, 0] - s * pts[:, 1]
+        y = cand[:, 1:2] + s * pts[:, 0] + c * pts[:, 1]
+        d = field.distances(x, y)
+        sc = np.exp(-0.5 * (d / sigma) ** 2).mean(axis=1)
+        obj = sc if prior is None else sc - ((cand - guess) ** 2 * prior).sum(axis=1)
+        j = int(np.argmax(obj))
+        best = cand[j]
+        score = float(sc[j])
+    best[2] = float(wrap_angle(best[2]))
+    return best, score
+
+
+def _subsample(pts: np.ndarray, n: int) -> np.ndarray:
+    if pts.shape[0] <= n:
+        return pts
+    return pts[np.linspace(0, pts.shape[0] - 1, n).round().astype(np.int64)]
+
+
+def _surface_points(scan_origin: np.ndarray, pts: np.ndarray, hit_offset: float) -> np.ndarray:
+    """End points moved back by ``hit_offset`` along their beams (``prepare_scan`` puts them
+    behind the surface for the cell rule; point-to-point matching wants the surface)."""
+    rel = pts - scan_origin
+    r = np.hypot(rel[:, 0], rel[:, 1])
+    scale = np.maximum(r - hit_offset, 0.0) / np.maximum(r, 1e-9)
+    return (scan_origin + rel * scale[:, None]).astype(np.float32)
+
+
+def _compact(scan: PreparedScan) -> PreparedScan:
+    """A float32 copy of the parts of a scan the graph needs (hits, match, free polygon)."""
+    f = np.float32
+    return PreparedScan(scan.origin.astype(f), scan.hits.astype(f), scan.match.astype(f),
+                        scan.match_range.astype(f), scan.max_urange,
+                        scan.free_polygon.astype(f), scan.n_beams, scan.n_hits,
+                        scan.n_free_only)
+
+
+class PoseGraph:
+    """Keyframes, edges and loop closing (see the module doc). Feed ``add_keyframe`` after
+    every filter update; ``poses`` are the node estimates (map frame)."""
+
+    def __init__(self, cfg: LoopClosureConfig, hit_offset: float = 0.0):
+        self.cfg = cfg
+        self.hit_offset = hit_offset  # [m] prepare_scan's hit_offset of the scans fed
+        self.points: List[np.ndarray] = []  # surface end points per keyframe (base frame)
+        self.match_points: List[np.ndarray] = []  # the same of the matched beams
+        self.poses = np.zeros((0, 3))
+        self.chain = np.zeros((0, 3))        # front-end chain (sequential edges composed)
+        self.path_m = np.zeros(0)            # path length along the chain at each node
+        self.scans: List[PreparedScan] = []
+        self.edges: List[Tuple[int, int, np.ndarray, np.ndarray]] = []  # i, j, z, 1/sigma
+        self.loop_edges = 0
+        self.closures = 0
+        self.odometry_edges = 0  # sequential edges from odometry alone (nothing to match)
+        self._next_check_m = 0.0
+
+    def __len__(self) -> int:
+        return self.poses.shape[0]
+
+    # -- front end -------------------------------------------------------------------
+    def add_keyframe(self, pose, scan: PreparedScan, odom_delta) -> LoopResult:
+        """Add the filter's pose ``pose`` (map frame) for ``scan``, taken after the odometry
+        motion ``odom_delta`` (previous keyframe's robot frame); search for a loop if due."""
+        cfg = self.cfg
+        pose = np.asarray(pose, dtype=float)
+        self.points.append(_surface_points(scan.origin, scan.hits, self.hit_offset))
+        self.match_points.append(_surface_points(scan.origin, scan.match, self.hit_offset))
+        scan = _compact(scan)
+        k = len(self)
+        if k == 0:
+            chain_pose, travelled = pose.copy(), 0.0
+        else:
+            z = self._sequential_edge(scan, np.asarray(odom_delta, dtype=float))
+            d = math.hypot(z[0], z[1])
+            inv = 1.0 / np.array([cfg.seq_sigma_xy[0] + cfg.seq_sigma_xy[1] * d] * 2
+                                 + [cfg.seq_sigma_theta[0] + cfg.seq_sigma_theta[1] * d])
+            self.edges.append((k - 1, k, z, inv))
+            chain_pose = compose(self.chain[-1], z)
+            travelled = float(self.path_m[-1]) + d
+        self.poses = np.vstack([self.poses, pose])
+        self.chain = np.vstack([self.chain, chain_pose])
+        self.path_m = np.append(self.path_m, travelled)
+        self.scans.append(scan)
+        if not cfg.enabled or k == 0 or travelled < self._next_check_m:
+            return LoopResult()
+        return self._search_loop(k)
+
+    def _sequential_edge(self, scan: PreparedScan, odom_delta: np.ndarray) -> np.ndarray:
+        """Motion from the previous keyframe to this one: scan matched against the last
+        ``local_keyframes`` scans placed along the chain; the odometry if nothing to match."""
+        cfg = self.cfg
+        # beams reaching past what the previous scan could see would pull the pose back
+        # onto the end of the mapped walls (as in the filter: ``new_area_margin``)
+        reach = scan.max_urange - math.hypot(odom_delta[0], odom_delta[1]) - 0.1
+        pts = _subsample(self.match_points[-1][scan.match_range <= reach].astype(float),
+                         cfg.max_points)
+        first = max(0, len(self) - cfg.local_keyframes)
+        local = [_transform(self.chain[i], self.points[i].astype(float))
+                 for i in range(first, len(self)) if self.points[i].shape[0]]
+        if pts.shape[0] < 10 or not local:
+            self.odometry_edges += 1
+            return odom_delta.copy()
+        field = LikelihoodField(np.vstack(local), cfg.fine_step_m, 1.0, 3.0 * cfg.match_sigma_m)
+        guess = compose(self.chain[-1], odom_delta)
+        # pull to the odometry's position: one point's score per seq_prior_m squared
+        prior = np.array([cfg.seq_prior_m ** -2, cfg.seq_prior_m ** -2, 0.0]) / pts.shape[0]
+        best, score, _ = correlative_match(field, pts, guess, 0.1, 0.04, cfg.coarse_step_rad,
+                                           cfg.match_sigma_m, prior=prior)
+        if score < 0.3:  # the local submap does not see what this scan sees: trust odometry
+            self.odometry_edges += 1
+            return odom_delta.copy()
+        return relative(self.chain[-1], best)
+
+    def _search_loop(self, k: int) -> LoopResult:
+        cfg = self.cfg
+        self._next_check_m = float(self.path_m[k]) + cfg.check_every_m
+        old = np.nonzero(self.path_m[:k] <= self.path_m[k] - cfg.min_travel_m)[0]
+        if old.size == 0:
+            return LoopResult()
+        gap = np.hypot(self.poses[old, 0] - self.poses[k, 0],
+                       self.poses[old, 1] - self.poses[k, 1])
+        if gap.min() > cfg.search_radius_m:
+            return LoopResult()
+        anchor = int(old[np.argmin(gap)])
+        near = old[np.hypot(self.poses[old, 0] - self.poses[anchor, 0],
+                            self.poses[old, 1] - self.poses[anchor, 1]) <= cfg.submap_radius_m]
+        cloud = [_transform(self.poses[i], self.points[i].astype(float)) for i in near
+                 if self.points[i].shape[0]]
+        pts = _subsample(self.match_points[k].astype(float), cfg.max_points)
+        if not cloud or pts.shape[0] < 10:
+            return LoopResult()
+        field = LikelihoodField(np.vstack(cloud), cfg.coarse_step_m,
+                                cfg.window_m + cfg.submap_radius_m + 1.0,
+                                3.0 * cfg.match_sigma_m)
+        best, score, spread = correlative_match(field, pts, self.poses[k], cfg.window_m,
+                                                cfg.window_rad, cfg.coarse_step_rad,
+                                                cfg.match_sigma_m, 1.0 - cfg.ambiguity)
+        where = "keyframe %d (%.1f m back) near (%.1f, %.1f)" % (
+            anchor, self.path_m[k] - self.path_m[anchor], self.poses[anchor, 0],
+            self.poses[anchor, 1])
+        if score < cfg.min_score:
+            return LoopResult("rejected", "loop candidate %s: match score %.2f below "
+                              "loop_min_score %.2f" % (where, score, cfg.min_score),
+                              anchor=anchor, score=score)
+        if spread > cfg.max_spread_m:
+            return LoopResult("rejected", "loop candidate %s: ambiguous match (poses %.2f m "
+                              "apart score within %.0f %% of the best, loop_max_spread_m "
+                              "%.2f)" % (where, spread, 100 * cfg.ambiguity, cfg.max_spread_m),
+                              anchor=anchor, score=score)
+        z = relative(self.poses[anchor], best)
+        inv = 1.0 / np.array([cfg.loop_sigma_xy, cfg.loop_sigma_xy, cfg.loop_sigma_theta])
+        return self.close_loop(anchor, k, z, inv, where, score)
+
+    # -- back end --------------------------------------------------------------------
+    def close_loop(self, i: int, j: int, z, inv_sigma, where: str = "",
+                   score: float = 0.0) -> LoopResult:
+        """Add the loop edge i -> j (measurement ``z``, 1/std ``inv_sigma``), optimise, and
+        keep the result within the correction bounds (see the module doc)."""
+        cfg = self.cfg
+        where = where or "keyframes %d -> %d" % (i, j)
+        self.edges.append((i, j, np.asarray(z, dtype=float), np.asarray(inv_sigma, float)))
+        optimised = self.optimise()
+        moved = np.hypot(optimised[:, 0] - self.poses[:, 0], optimised[:, 1] - self.poses[:, 1])
+        correction = float(moved.max())
+        if correction > cfg.max_correction_m:
+            self.edges.pop()
+            return LoopResult("rejected", "loop closure with %s rejected: it would move the "
+                              "map by %.2f m (more than loop_max_correction_m %.2f m)"
+                              % (where, correction, cfg.max_correction_m),
+                              correction, i, score)
+        self.loop_edges += 1
+        if correction <= cfg.min_correction_m:
+            return LoopResult("kept", "loop edge with %s agrees with the map (largest "
+                              "correction %.3f m)" % (where, correction), correction, i, score)
+        self.poses = optimised
+        self.closures += 1
+        return LoopResult("closed", "loop closed with %s (match score %.2f): keyframes moved "
+                          "by up to %.2f m" % (where, score, correction), correction, i, score)
+
+    def optimise(self) -> np.ndarray:
+        """Node poses minimising the whitened edge errors, node 0 fixed (scipy
+        least_squares, trust region with a sparse analytic Jacobian): first with a plain
+        quadratic loss (Gauss-Newton-like, converges in a few steps), then polished from
+        there with a Huber loss, so a wrong loop edge that slipped through cannot pull the
+        whole graph quadratically."""
+        n = len(self)
+        if n < 2 or not self.edges:
+            return self.poses.copy()
+        ii = np.array([e[0] for e in self.edges])
+        jj = np.array([e[1] for e in self.edges])
+        zz = np.array([e[2] for e in self.edges])
+        ww = np.array([e[3] for e in self.edges])
+        m = ii.size
+        x_fixed = self.poses[0].copy()
+
+        def unpack(x):
+            p = np.vstack([x_fixed, x.reshape(-1, 3)])
+            pi, pj = p[ii], p[jj]
+            return pi, pj, np.cos(pi[:, 2]), np.sin(pi[:, 2]), pj[:, 0] - pi[:, 0], \
+                pj[:, 1] - pi[:, 1]
+
+        def residuals(x):
+            pi, pj, c, s, dx, dy = unpack(x)
+            e = np.column_stack([c * dx + s * dy - zz[:, 0], -s * dx + c * dy - zz[:, 1],
+                                 wrap_angle(pj[:, 2] - pi[:, 2] - zz[:, 2])])
+            return (e * ww).ravel()
+
+        def jacobian(x):
+            _, _, c, s, dx, dy = unpack(x)
+            zero, one = np.zeros(m), np.ones(m)
+            # d e / d (x_i, y_i, th_i) and d e / d (x_j, y_j, th_j), rows e_x, e_y, e_th
+            d_i = np.stack([np.stack([-c, -s, -s * dx + c * dy], 1),
+                            np.stack([s, -c, -c * dx - s * dy], 1),
+                            np.stack([zero, zero, -one], 1)], 1)
+            d_j = np.stack([np.stack([c, s, zero], 1), np.stack([-s, c, zero], 1),
+                            np.stack([zero, zero, one], 1)], 1)
+            rows, cols, vals = [], [], []
+            r = (3 * np.arange(m))[:, None, None] + np.arange(3)[None, :, None]
+            for node, d in ((ii, d_i), (jj, d_j)):
+                col = (3 * (node - 1))[:, None, None] + np.arange(3)[None, None, :]
+                keep = np.broadcast_to((node > 0)[:, None, None], d.shape)
+                rows.append(np.broadcast_to(r, d.shape)[keep])
+                cols.append(np.broadcast_to(col, d.shape)[keep])
+                vals.append((d * ww[:, :, None])[keep])
+            return csr_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                      np.concatenate(cols))),
+                              shape=(3 * m, 3 * (n - 1)))
+
+        x = self.poses[1:].ravel()
+        for loss in ("linear", "huber"):
+            x = least_squares(residuals, x, jac=jacobian, loss=loss, f_scale=1.0,
+                              method="trf", tr_solver="lsmr", max_nfev=20).x
+        out = np.vstack([x_fixed, x.reshape(-1, 3)])
+        out[:, 2] = wrap_angle(out[:, 2])
+        return out
+
+
+def rebuild_counts(maps_factory, poses: np.ndarray, scans: List[PreparedScan]):
+    """Register every keyframe scan at its pose into a fresh one-particle ``ParticleMaps``
+    made by ``maps_factory()`` (grown to hold them all) and return it."""
+    maps = maps_factory()
+    pose_arr = np.asarray(poses, dtype=float)
+    boxes = np.array([maps.footprint(pose_arr[k:k + 1], s) for k, s in enumerate(scans)])
+    pad = 2.0 * maps.info.resolution
+    maps.ensure_contains(float(boxes[:, 0].min()) - pad, float(boxes[:, 1].min()) - pad,
+                         float(boxes[:, 2].max()) + pad, float(boxes[:, 3].max()) + pad, 2.0)
+    for k, s in enumerate(scans):
+        maps.register(pose_arr[k:k + 1], s)
+    return maps

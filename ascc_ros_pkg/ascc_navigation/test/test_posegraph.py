@@ -1,0 +1,232 @@
+"""Tests of the mapper's loop closure (``ascc_navigation.posegraph``), no ROS master: a
+synthetic office loop whose pose estimates carry a known injected drift, a false loop
+candidate, an ambiguous corridor match, the correction bound, and the mapper with it on."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ascc_common import pose2d as P
+from ascc_common.grid import OCCUPIED
+from ascc_common.params import from_params, parameters
+from ascc_navigation import grid as G
+from ascc_navigation import mapper as M
+from ascc_navigation import posegraph as PG
+from ascc_navigation import rbpf as R
+from ascc_navigation import synthetic as S
+from ascc_navigation.laser import LaserMount, prepare_scan
+
+SPEC = S.LaserSpec()
+MOUNT = LaserMount(0.05, 0.0, 0.0)
+KEYFRAME_M = 0.25  # the shipped linearUpdate
+
+
+def _prepare(ranges):
+    return prepare_scan(ranges, SPEC.angle_min, SPEC.angle_increment, SPEC.range_min,
+                        SPEC.range_max, MOUNT, 3.9, max_range=4.5, lskip=2,
+                        free_pullback=0.05, hit_offset=0.025)
+
+
+def _keyframes(world, waypoints, seed=0):
+    """True keyframe poses (one per 0.25 m or 0.25 rad, as the filter updates) along the
+    waypoint route, and their scans (1 cm range noise)."""
+    traj = S.waypoint_trajectory(waypoints, v=0.3, w=0.8, dt=0.1)
+    keep = [0]
+    for k in range(1, traj.shape[0]):
+        d = P.relative(traj[keep[-1]], traj[k])
+        if math.hypot(d[0], d[1]) >= KEYFRAME_M or abs(d[2]) >= 0.25:
+            keep.append(k)
+    truth = traj[keep]
+    rng = np.random.default_rng(seed)
+    occupied = world[0] == OCCUPIED
+    scans = [_prepare(S.simulate_scan(occupied, world[1], p, MOUNT, SPEC, rng))
+             for p in truth]
+    return truth, scans
+
+
+def _drifted(truth, rad_per_m):
+    """Estimates as a drifting filter gives them: the true increments composed with an
+    extra heading error of ``rad_per_m`` per metre driven (the injected drift)."""
+    inc = P.relative(truth[:-1], truth[1:])
+    inc[:, 2] += rad_per_m * np.hypot(inc[:, 0], inc[:, 1])
+    est = [truth[0]]
+    for d in inc:
+        est.append(P.compose(est[-1], d))
+    return np.array(est)
+
+
+def _odometry(truth, rng, noise=0.01):
+    """Odometry increments: the truth's with a little noise [m, rad per step]."""
+    inc = P.relative(truth[:-1], truth[1:])
+    return inc + noise * rng.standard_normal(inc.shape) * np.array([1.0, 1.0, 0.5])
+
+
+def _run_graph(cfg, truth, scans, est, odom):
+    graph = PG.PoseGraph(cfg)
+    results = [graph.add_keyframe(est[0], scans[0], np.zeros(3))]
+    for k in range(1, truth.shape[0]):
+        results.append(graph.add_keyframe(est[k], scans[k], odom[k - 1]))
+    return graph, results
+
+
+def _pose_error(poses, truth):
+    return np.hypot(poses[:, 0] - truth[:, 0], poses[:, 1] - truth[:, 1])
+
+
+def _map_accuracy(poses, scans, world):
+    info = world[1]
+    maps = PG.rebuild_counts(lambda: R.ParticleMaps(1, info), poses, scans)
+    grid = maps.occupancy(0, 0.25)
+    return G.map_agreement(grid, maps.info, world[0], info)["accuracy"]
+
+
+@pytest.fixture(scope="module")
+def office_loop():
+    world = S.office_world()
+    truth, scans = _keyframes(world, S.office_loop_waypoints())
+    return world, truth, scans
+
+
+def test_loop_with_injected_drift_is_closed(office_loop):
+    world, truth, scans = office_loop
+    est = _drifted(truth, 0.004)  # 0.004 rad/m: ~0.4 m off when the loop comes back
+    before = _pose_error(est, truth)
+    assert 0.3 < before.max() < 1.0  # the drift is real, and within the search window
+    cfg = PG.LoopClosureConfig(window_m=0.8)
+    graph, results = _run_graph(cfg, truth, scans, est, _odometry(truth, np.random.default_rng(1)))
+    closed = [r for r in results if r.status == "closed"]
+    assert closed, [r.reason for r in results if r.status != "none"]
+    # the loop edge is found where the robot comes back to its start (>= 10 m of path)
+    first = results.index(closed[0])
+    assert graph.path_m[first] - graph.path_m[closed[0].anchor] >= cfg.min_travel_m
+    # nodes before the closure keep their estimates until the closure moves them, and
+    # the corrected trajectory is much nearer the truth than the drifted one
+    after = _pose_error(graph.poses, truth)
+    assert after.mean() < 0.4 * before.mean()
+    assert after.max() < 0.5 * before.max()
+    # the map rebuilt from the corrected keyframes agrees better with the floor plan
+    acc_before = _map_accuracy(est, scans, world)
+    acc_after = _map_accuracy(graph.poses, scans, world)
+    assert acc_after > acc_before + 0.03, (acc_before, acc_after)
+    assert acc_after > 0.95
+
+
+def test_correction_bound_rejects_a_large_closure(office_loop):
+    world, truth, scans = office_loop
+    est = _drifted(truth, 0.004)
+    cfg = PG.LoopClosureConfig(window_m=0.8, max_correction_m=0.15)
+    graph, results = _run_graph(cfg, truth, scans, est, _odometry(truth, np.random.default_rng(1)))
+    rejected = [r for r in results if r.status == "rejected" and "loop_max_correction_m"
+                in r.reason]
+    assert rejected and all(r.correction_m > 0.15 for r in rejected)
+    assert not [r for r in results if r.status == "closed"]
+    # nothing applied: the estimates are the drifted ones, no loop edge stayed in the graph
+    assert np.array_equal(graph.poses, est)
+    assert graph.loop_edges == 0
+    assert all(j == i + 1 for i, j, _, _ in graph.edges)
+
+
+def test_false_loop_candidate_is_rejected(office_loop):
+    """A keyframe whose estimate lies within the search radius of the start, but whose
+    scan was taken elsewhere (the north rooms): no match, no edge, no correction."""
+    world, truth, scans = office_loop
+    cfg = PG.LoopClosureConfig()
+    n = truth.shape[0]
+    graph, _ = _run_graph(cfg, truth[: n // 2], scans[: n // 2], truth[: n // 2],
+                          _odometry(truth[: n // 2], np.random.default_rng(2)))
+    elsewhere = np.array([8.0, 8.4, math.pi / 2])  # in a north room, facing north
+    scan = _prepare(S.simulate_scan(world[0] == OCCUPIED, world[1], elsewhere, MOUNT, SPEC,
+                                    np.random.default_rng(3)))
+    claimed = truth[2] + np.array([0.3, 0.2, 0.05])  # the estimate says: back at the start
+    graph._next_check_m = 0.0
+    poses_before = graph.poses.copy()
+    result = graph.add_keyframe(claimed, scan, np.zeros(3))
+    assert result.status == "rejected"
+    assert "loop_min_score" in result.reason
+    assert result.score < cfg.min_score
+    assert graph.loop_edges == 0
+    assert np.array_equal(graph.poses[:-1], poses_before)
+
+
+def test_ambiguous_corridor_match_is_rejected():
+    """In a straight corridor without features a scan slides along the walls: the match
+    is ambiguous along the corridor and must not become a loop edge."""
+    world = S.rect_world((40.0, 2.6), 0.05, [])
+    truth, scans = _keyframes(world, [(6.0, 1.3), (34.0, 1.3), (20.0, 1.3)])
+    cfg = PG.LoopClosureConfig()
+    graph, results = _run_graph(cfg, truth, scans, truth, _odometry(
+        truth, np.random.default_rng(4)))
+    searched = [r for r in results if r.status != "none"]
+    assert searched, "the way back passes the keyframes of the way out"
+    assert all(r.status == "rejected" for r in searched)
+    assert any("ambiguous" in r.reason for r in searched)
+    assert graph.loop_edges == 0
+
+
+def test_optimise_distributes_a_loop_residual():
+    """Back end alone: a square of 4 x 10 unit steps whose odometry edges turn 1 degree
+    too little each; one loop edge end -> start makes the optimised square close."""
+    cfg = PG.LoopClosureConfig(min_correction_m=0.0, max_correction_m=10.0)
+    graph = PG.PoseGraph(cfg)
+    step = np.array([1.0, 0.0, 0.0])
+    turn = np.array([1.0, 0.0, math.pi / 2 - math.radians(1.0)])
+    truth = [np.zeros(3)]
+    for k in range(40):
+        truth.append(P.compose(truth[-1], np.array([1.0, 0.0, math.pi / 2 if k % 10 == 9
+                                                   else 0.0])))
+    truth = np.array(truth)
+    est = [np.zeros(3)]
+    for k in range(40):
+        z = turn if k % 10 == 9 else step
+        est.append(P.compose(est[-1], z))
+        graph.edges.append((k, k + 1, z.copy(), np.array([10.0, 10.0, 50.0])))
+    graph.poses = np.array(est)
+    assert _pose_error(graph.poses, truth)[-1] > 0.3
+    r = graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0]))
+    assert r.status == "closed"
+    assert math.hypot(*graph.poses[-1, :2]) < 0.1
+    assert abs(P.wrap_angle(graph.poses[-1, 2])) < 0.02
+
+
+def test_mapper_closes_the_office_loop_and_keeps_tf_consistent():
+    """The node's core with loop closure on (the default), drifting odometry: the loop is
+    found, the map agrees with the truth, and map -> odom -> base is the corrected pose."""
+    cfg = from_params(M.MapperConfig, {"linearUpdate": 0.25, "angularUpdate": 0.25,
+                                       "maxUrange": 3.9, "maxRange": 4.5, "lskip": 2,
+                                       "srr": 0.03, "str": 0.05, "iterations": 8,
+                                       "particles": 10}.get)
+    assert cfg.loop.enabled
+    world = S.office_world()
+    traj = S.waypoint_trajectory(S.office_loop_waypoints(), v=0.3, w=0.8, dt=0.2)
+    rng = np.random.default_rng(5)
+    odom = S.noisy_odometry(traj, rng, rot_bias=0.02)
+    mapper = M.SlamMapper(cfg, seed=5)
+    occupied = world[0] == OCCUPIED
+    loops = []
+    for k in range(traj.shape[0]):
+        out = mapper.handle_scan(M.ScanInput(0.2 * k, S.simulate_scan(
+            occupied, world[1], traj[k], MOUNT, SPEC, rng), SPEC.angle_min,
+            SPEC.angle_increment, SPEC.range_min, SPEC.range_max), odom[k], MOUNT)
+        if out.loop is not None and out.loop.status != "none":
+            loops.append(out.loop)
+            if out.loop.status == "closed":
+                # TF stays consistent: map->odom composed with odometry = corrected pose
+                np.testing.assert_allclose(P.compose(mapper.map_to_odom(), odom[k]),
+                                           mapper.graph.poses[-1], atol=1e-9)
+    assert [r for r in loops if r.status in ("closed", "kept")], [r.reason for r in loops]
+    grid, info = mapper.occupancy()
+    assert set(np.unique(grid)) <= {-1, 0, 100}
+    assert G.map_agreement(grid, info, world[0], world[1])["accuracy"] > 0.95
+    end = P.compose(mapper.map_to_odom(), odom[-1])
+    assert math.hypot(end[0] - traj[-1, 0], end[1] - traj[-1, 1]) < 0.15
+
+
+def test_loop_parameters_have_units_and_names():
+    names = {p.name: p for p in parameters(M.MapperConfig)}
+    for name in ("loop_closure", "loop_search_radius_m", "loop_min_travel_m",
+                 "loop_check_every_m", "loop_window_m", "loop_window_rad", "loop_min_score",
+                 "loop_ambiguity", "loop_max_spread_m", "loop_max_correction_m",
+                 "loop_min_correction_m"):
+        assert name in names
+        assert "[" in names[name].doc or name == "loop_closure"
