@@ -16,14 +16,16 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   old keyframes' scans at their node poses: a correlative search (likelihood field from
   ``cv2.distanceTransform``, every (dx, dy, dtheta) of a grid scored at once) refined on a
   finer grid with bilinear lookups. It is accepted only if the matched share of the beams
-  reaches ``min_score`` and the match is unambiguous: every candidate within
-  ``ambiguity`` of the best score lies within ``max_spread_m`` of it (a featureless
-  corridor, where the scan slides along the walls, is rejected).
+  reaches ``min_score`` and the match is determined: the candidates' score-weighted
+  covariance gives each position axis a std; axes above ``max_spread_m`` are left free
+  (a featureless corridor fixes the lateral position and the heading, not the position
+  along it), and a match with no fixed axis, or a heading std above ``max_spread_rad``,
+  is rejected.
 
 With a new loop edge the graph is optimised (``scipy.optimize.least_squares``, sparse
-Jacobian pattern, Huber loss on whitened residuals, node 0 fixed). If the optimisation
-moves any node by more than ``max_correction_m`` the loop edge is removed and nothing
-changes (reported, so the node logs it); if it moves none by more than ``min_correction_m``
+analytic Jacobian, quadratic then Huber loss on whitened residuals, node 0 fixed). If the
+optimisation moves any node by more than ``max_correction_m`` the loop edge is removed and
+nothing changes (reported, so the node logs it); if it moves none by more than ``min_correction_m``
 the edge is kept but the map is left as is; otherwise the node poses are replaced and the
 caller rebuilds the map from the corrected keyframes (``rebuild_counts``).
 """
@@ -56,16 +58,17 @@ class LoopClosureConfig:
                                 "path", "loop_min_travel_m", ge=0.0)
     check_every_m: float = param(1.0, "[m] path between two loop searches",
                                  "loop_check_every_m", ge=0.0)
-    window_m: float = param(0.6, "[m] loop match searches +- this in x and y",
+    window_m: float = param(1.0, "[m] loop match searches +- this in x and y",
                             "loop_window_m", gt=0.0)
     window_rad: float = param(0.15, "[rad] loop match searches +- this in heading",
                               "loop_window_rad", ge=0.0)
     min_score: float = param(0.8, "[share of the beams] a loop match must reach this",
                              "loop_min_score", gt=0.0, le=1.0)
-    ambiguity: float = param(0.05, "[share of the best score] candidates this close to the "
-                             "best ...", "loop_ambiguity", ge=0.0, le=0.5)
-    max_spread_m: float = param(0.15, "[m] ... must lie within this of it (else ambiguous)",
-                                "loop_max_spread_m", gt=0.0)
+    max_spread_m: float = param(0.15, "[m] a loop match's position std above which that "
+                                "axis is left free (both: rejected)", "loop_max_spread_m",
+                                gt=0.0)
+    max_spread_rad: float = param(0.05, "[rad] a loop match's heading std above which it is "
+                                  "rejected", "loop_max_spread_rad", gt=0.0)
     max_correction_m: float = param(1.5, "[m] a closure moving any keyframe further is "
                                     "rejected", "loop_max_correction_m", gt=0.0)
     min_correction_m: float = param(0.03, "[m] a closure moving no keyframe further leaves "
@@ -80,6 +83,7 @@ class LoopClosureConfig:
     fine_step_m: float = 0.02         # [m] field cell of sequential matches and refinement
     coarse_step_rad: float = 0.01     # [rad]
     match_sigma_m: float = 0.05       # [m] end-point score std
+    coarse_points: int = 120          # of them scored in the loop search's coarse grid
     max_points: int = 400             # matched end points per scan (evenly subsampled)
     seq_sigma_xy: Tuple[float, float] = (0.01, 0.03)     # [m] + [m/m] std of a sequential edge
     seq_sigma_theta: Tuple[float, float] = (0.005, 0.01)  # [rad] + [rad/m]
@@ -149,18 +153,26 @@ def _transform(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray,
                       window_m: float, window_rad: float, step_rad: float, sigma: float,
-                      spread_share: float = 0.95,
-                      prior: Optional[np.ndarray] = None) -> Tuple[np.ndarray, float, float]:
+                      prior: Optional[np.ndarray] = None,
+                      coarse_points: int = 0) -> Tuple[np.ndarray, float, np.ndarray, bool]:
     """Best pose of the base-frame points ``pts`` (M, 2) in ``field`` within +-window_m,
     +-window_rad of ``guess``: every candidate of a grid (field cells in x, y; ``step_rad``
     in heading) scored at once by nearest-cell gathers, then a finer grid around the best
     with bilinear lookups. Score: mean over points of exp(-d^2 / 2 sigma^2) (1 = perfect).
-    Returns (pose, score, spread): spread [m] is the largest distance from the best
-    translation of a coarse candidate (any heading) scoring at least ``spread_share`` times
-    the best coarse score: large where the scan slides along featureless walls.
+    ``coarse_points`` > 0: the coarse grid scores only that many of the points (evenly
+    spread), the refinement all.
+    Returns (pose, score, cov, at_edge): ``cov`` is the covariance (x, y, theta; map frame)
+    of the coarse candidates weighted by exp(M (score - best score)), M the points scored
+    (a score the way a likelihood would be, as Olson's correlative matcher does), plus the
+    grid's own discretisation: large along the walls of a featureless corridor, where the
+    scan slides. ``at_edge``: the best coarse candidate lies on the window's border in
+    heading, or in x or y (the true pose may be beyond it).
     ``prior`` (w_x, w_y, w_theta): the search maximises score - sum w_k (pose_k - guess_k)^2
     instead (a pull to the guess, as the filter's ``motion_prior``: a scan in a featureless
     corridor does not slide along it); the returned score is the plain one."""
+    all_pts = pts
+    if coarse_points > 0:
+        pts = _subsample(pts, coarse_points)
     res = field.res
     k_xy = max(int(round(window_m / res)), 0)
     k_th = max(int(round(window_rad / step_rad)), 0) if step_rad > 0 else 0
@@ -196,11 +208,20 @@ def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray
     dy_best, dx_best = divmod(int(j_best), offs.size)
     best = np.array([guess[0] + offs[dx_best] * res, guess[1] + offs[dy_best] * res,
                      thetas[t_best]])
-    _, j_near = np.nonzero(scores >= np.float32(spread_share) * scores[t_best, j_best])
-    dy, dx = np.divmod(j_near, offs.size)
-    spread = float(np.max(np.hypot(dx - dx_best, dy - dy_best))) * res
-    best, score = _refine(field, pts, best, res, step_rad, sigma, guess, prior)
-    return best, score, spread
+    weight = np.exp(pts.shape[0] * (scores.astype(float) - float(scores[t_best, j_best])))
+    weight /= weight.sum()
+    gy, gx = np.divmod(np.arange(shift.size), offs.size)
+    cand = np.stack(np.broadcast_arrays(offs[gx][None, :] * res, offs[gy][None, :] * res,
+                                        (thetas - guess[2])[:, None]), axis=-1).reshape(-1, 3)
+    w = weight.reshape(-1)
+    mean = w @ cand
+    dev = cand - mean
+    cov = (dev * w[:, None]).T @ dev + np.diag([res * res / 12.0] * 2
+                                               + [step_rad * step_rad / 12.0])
+    at_edge = (k_xy > 0 and max(abs(offs[dx_best]), abs(offs[dy_best])) == k_xy) or (
+        k_th > 0 and abs(int(t_best) - k_th) == k_th)
+    best, score = _refine(field, all_pts, best, res, step_rad, sigma, guess, prior)
+    return best, score, cov, bool(at_edge)
 
 
 def _refine(field: LikelihoodField, pts: np.ndarray, start: np.ndarray, step_m: float,
@@ -228,6 +249,12 @@ def _refine(field: LikelihoodField, pts: np.ndarray, start: np.ndarray, step_m: 
         score = float(sc[j])
     best[2] = float(wrap_angle(best[2]))
     return best, score
+
+
+def _sqrt_info(w) -> np.ndarray:
+    """A 3x3 square-root information matrix from 1/std per axis or a 3x3 matrix."""
+    w = np.asarray(w, dtype=float)
+    return np.diag(w) if w.ndim == 1 else w
 
 
 def _subsample(pts: np.ndarray, n: int) -> np.ndarray:
@@ -293,7 +320,7 @@ class PoseGraph:
             d = math.hypot(z[0], z[1])
             inv = 1.0 / np.array([cfg.seq_sigma_xy[0] + cfg.seq_sigma_xy[1] * d] * 2
                                  + [cfg.seq_sigma_theta[0] + cfg.seq_sigma_theta[1] * d])
-            self.edges.append((k - 1, k, z, inv))
+            self.edges.append((k - 1, k, z, _sqrt_info(inv)))
             chain_pose = compose(self.chain[-1], z)
             travelled = float(self.path_m[-1]) + d
         self.poses = np.vstack([self.poses, pose])
@@ -323,7 +350,7 @@ class PoseGraph:
         guess = compose(self.chain[-1], odom_delta)
         # pull to the odometry's position: one point's score per seq_prior_m squared
         prior = np.array([cfg.seq_prior_m ** -2, cfg.seq_prior_m ** -2, 0.0]) / pts.shape[0]
-        best, score, _ = correlative_match(field, pts, guess, 0.1, 0.04, cfg.coarse_step_rad,
+        best, score, _, _ = correlative_match(field, pts, guess, 0.1, 0.04, cfg.coarse_step_rad,
                                            cfg.match_sigma_m, prior=prior)
         if score < 0.3:  # the local submap does not see what this scan sees: trust odometry
             self.odometry_edges += 1
@@ -351,9 +378,9 @@ class PoseGraph:
         field = LikelihoodField(np.vstack(cloud), cfg.coarse_step_m,
                                 cfg.window_m + cfg.submap_radius_m + 1.0,
                                 3.0 * cfg.match_sigma_m)
-        best, score, spread = correlative_match(field, pts, self.poses[k], cfg.window_m,
-                                                cfg.window_rad, cfg.coarse_step_rad,
-                                                cfg.match_sigma_m, 1.0 - cfg.ambiguity)
+        best, score, cov, at_edge = correlative_match(
+            field, pts, self.poses[k], cfg.window_m, cfg.window_rad, cfg.coarse_step_rad,
+            cfg.match_sigma_m, coarse_points=cfg.coarse_points)
         where = "keyframe %d (%.1f m back) near (%.1f, %.1f)" % (
             anchor, self.path_m[k] - self.path_m[anchor], self.poses[anchor, 0],
             self.poses[anchor, 1])
@@ -361,23 +388,41 @@ class PoseGraph:
             return LoopResult("rejected", "loop candidate %s: match score %.2f below "
                               "loop_min_score %.2f" % (where, score, cfg.min_score),
                               anchor=anchor, score=score)
-        if spread > cfg.max_spread_m:
-            return LoopResult("rejected", "loop candidate %s: ambiguous match (poses %.2f m "
-                              "apart score within %.0f %% of the best, loop_max_spread_m "
-                              "%.2f)" % (where, spread, 100 * cfg.ambiguity, cfg.max_spread_m),
+        # position uncertainty in the anchor's frame (the loop edge's), its principal axes
+        c, s = math.cos(self.poses[anchor, 2]), math.sin(self.poses[anchor, 2])
+        rot = np.array([[c, s], [-s, c]])
+        eig, axes = np.linalg.eigh(rot @ cov[:2, :2] @ rot.T)
+        std = np.sqrt(np.maximum(eig, 0.0))
+        std_theta = math.sqrt(cov[2, 2])
+        fixed = std <= cfg.max_spread_m
+        if not fixed.any() or std_theta > cfg.max_spread_rad:
+            return LoopResult("rejected", "loop candidate %s: ambiguous match (position std "
+                              "%.2f / %.2f m, heading std %.3f rad; loop_max_spread_m %.2f)"
+                              % (where, std[0], std[1], std_theta, cfg.max_spread_m),
                               anchor=anchor, score=score)
+        if at_edge and fixed.all():
+            return LoopResult("rejected", "loop candidate %s: best match on the border of the "
+                              "search window (loop_window_m %.2f, loop_window_rad %.2f)"
+                              % (where, cfg.window_m, cfg.window_rad), anchor=anchor,
+                              score=score)
+        # square-root information: the well-determined axes only (a corridor's match fixes
+        # the lateral position and the heading, not the position along it)
+        sqrt_info = np.zeros((3, 3))
+        for a in np.nonzero(fixed)[0]:
+            sqrt_info[a, :2] = axes[:, a] / max(std[a], cfg.loop_sigma_xy)
+        sqrt_info[2, 2] = 1.0 / max(std_theta, cfg.loop_sigma_theta)
         z = relative(self.poses[anchor], best)
-        inv = 1.0 / np.array([cfg.loop_sigma_xy, cfg.loop_sigma_xy, cfg.loop_sigma_theta])
-        return self.close_loop(anchor, k, z, inv, where, score)
+        return self.close_loop(anchor, k, z, sqrt_info, where, score)
 
     # -- back end --------------------------------------------------------------------
-    def close_loop(self, i: int, j: int, z, inv_sigma, where: str = "",
+    def close_loop(self, i: int, j: int, z, sqrt_info, where: str = "",
                    score: float = 0.0) -> LoopResult:
-        """Add the loop edge i -> j (measurement ``z``, 1/std ``inv_sigma``), optimise, and
-        keep the result within the correction bounds (see the module doc)."""
+        """Add the loop edge i -> j (measurement ``z``; ``sqrt_info``: 1/std per axis, or
+        a 3x3 square-root information matrix), optimise, and keep the result within the
+        correction bounds (see the module doc)."""
         cfg = self.cfg
         where = where or "keyframes %d -> %d" % (i, j)
-        self.edges.append((i, j, np.asarray(z, dtype=float), np.asarray(inv_sigma, float)))
+        self.edges.append((i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info)))
         optimised = self.optimise()
         moved = np.hypot(optimised[:, 0] - self.poses[:, 0], optimised[:, 1] - self.poses[:, 1])
         correction = float(moved.max())
@@ -408,7 +453,7 @@ class PoseGraph:
         ii = np.array([e[0] for e in self.edges])
         jj = np.array([e[1] for e in self.edges])
         zz = np.array([e[2] for e in self.edges])
-        ww = np.array([e[3] for e in self.edges])
+        ww = np.array([_sqrt_info(e[3]) for e in self.edges])
         m = ii.size
         x_fixed = self.poses[0].copy()
 
@@ -422,7 +467,7 @@ class PoseGraph:
             pi, pj, c, s, dx, dy = unpack(x)
             e = np.column_stack([c * dx + s * dy - zz[:, 0], -s * dx + c * dy - zz[:, 1],
                                  wrap_angle(pj[:, 2] - pi[:, 2] - zz[:, 2])])
-            return (e * ww).ravel()
+            return np.einsum("mab,mb->ma", ww, e).ravel()
 
         def jacobian(x):
             _, _, c, s, dx, dy = unpack(x)
@@ -440,7 +485,7 @@ class PoseGraph:
                 keep = np.broadcast_to((node > 0)[:, None, None], d.shape)
                 rows.append(np.broadcast_to(r, d.shape)[keep])
                 cols.append(np.broadcast_to(col, d.shape)[keep])
-                vals.append((d * ww[:, :, None])[keep])
+                vals.append(np.einsum("mab,mbc->mac", ww, d)[keep])
             return csr_matrix((np.concatenate(vals), (np.concatenate(rows),
                                                       np.concatenate(cols))),
                               shape=(3 * m, 3 * (n - 1)))
