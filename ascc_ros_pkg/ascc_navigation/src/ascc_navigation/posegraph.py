@@ -77,6 +77,7 @@ class LoopClosureConfig:
     # sequential match: pull of the position to the odometry's (see correlative_match's
     # prior); none on the heading, which the walls fix and the odometry's drifts
     seq_prior_m: float = 0.02         # [m]
+    revisit_margin_m: float = 2.0     # [m] see PoseGraph._revisiting
     local_keyframes: int = 20          # scans in the local submap of a sequential match
     submap_radius_m: float = 4.0      # [m] old keyframes within this of the anchor: submap
     coarse_step_m: float = 0.05       # [m] = the loop search's likelihood field cell
@@ -316,7 +317,10 @@ class PoseGraph:
         if k == 0:
             chain_pose, travelled = pose.copy(), 0.0
         else:
-            z = self._sequential_edge(scan, np.asarray(odom_delta, dtype=float))
+            if self._revisiting(pose, k):
+                z = self._sequential_edge(scan, np.asarray(odom_delta, dtype=float))
+            else:  # fresh ground: the filter's own increment (its map is consistent here)
+                z = relative(self.poses[-1], pose)
             d = math.hypot(z[0], z[1])
             inv = 1.0 / np.array([cfg.seq_sigma_xy[0] + cfg.seq_sigma_xy[1] * d] * 2
                                  + [cfg.seq_sigma_theta[0] + cfg.seq_sigma_theta[1] * d])
@@ -330,6 +334,16 @@ class PoseGraph:
         if not cfg.enabled or k == 0 or travelled < self._next_check_m:
             return LoopResult()
         return self._search_loop(k)
+
+    def _revisiting(self, pose: np.ndarray, k: int) -> bool:
+        """Whether keyframes far back along the path (``min_travel_m``) lie within the
+        submap radius plus the laser's reach of ``pose``: then the filter's matcher can see
+        old parts of its map and its increments may contain a (partial) loop correction."""
+        old = self.path_m[:k] <= self.path_m[k - 1] - self.cfg.min_travel_m
+        if not old.any():
+            return False
+        gap = np.hypot(self.poses[:k][old, 0] - pose[0], self.poses[:k][old, 1] - pose[1])
+        return bool(gap.min() <= self.cfg.submap_radius_m + self.cfg.revisit_margin_m)
 
     def _sequential_edge(self, scan: PreparedScan, odom_delta: np.ndarray) -> np.ndarray:
         """Motion from the previous keyframe to this one: scan matched against the last

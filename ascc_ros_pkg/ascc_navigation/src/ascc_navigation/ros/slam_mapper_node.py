@@ -124,6 +124,7 @@ class SlamMapperNode:
             odom_pose, mount)
         if out.reason and out.status in (M.REJECTED, M.RESET):
             self.warn("slam_mapper: %s" % out.reason)
+        self.report_loop(out.loop)
         if out.status == M.RESET:
             self.last_map_time = None
         if out.stats is not None:
@@ -138,6 +139,18 @@ class SlamMapperNode:
             self.publish_map(now)
 
     # -- helpers ---------------------------------------------------------------------
+    def report_loop(self, loop):
+        """Log a loop closure (and publish its rebuilt map at once) or a closure rejected by
+        loop_max_correction_m (``loop``: ``Outcome.loop``, None without a loop search)."""
+        if loop is None:
+            return
+        if loop.status == "closed":
+            rospy.loginfo("slam_mapper: %s; map rebuilt", loop.reason)
+            self.map_dirty = True
+            self.last_map_time = None
+        elif loop.status == "rejected" and "loop_max_correction_m" in loop.reason:
+            self.warn("slam_mapper: %s" % loop.reason)
+
     def warn(self, text):
         """Log a warning, each kind (the text without its numbers) once per WARN_PERIOD_S."""
         kind = re.sub(r"[-+]?\d[\d.e+-]*", "#", text)
