@@ -31,6 +31,7 @@ def _config():
     known = {p.name for p in parameters(M.MapperConfig)}
     params = {k: v for k, v in values.items() if k in known}
     params["particles"] = 10
+    params["loop_closure"] = True
     return from_params(M.MapperConfig, params.get)
 
 

@@ -102,7 +102,7 @@ def office_loop():
 def _continue(office_loop, **cfg):
     world, truth, scans, drift, odom, split, graph = office_loop
     graph = copy.deepcopy(graph)
-    graph.cfg = PG.LoopClosureConfig(**cfg)
+    graph.cfg = PG.LoopClosureConfig(enabled=True, **cfg)
     results = _feed(graph, truth, scans, drift, odom, split, truth.shape[0])
     return graph, results
 
@@ -154,7 +154,7 @@ def test_false_loop_candidate_is_rejected(office_loop):
     world = office_loop[0]
     truth = office_loop[1]
     graph = copy.deepcopy(office_loop[6])
-    graph.cfg = PG.LoopClosureConfig()
+    graph.cfg = PG.LoopClosureConfig(enabled=True)
     elsewhere = np.array([8.0, 8.4, math.pi / 2])  # in a north room, facing north
     scan = _prepare(S.simulate_scan(world[0] == OCCUPIED, world[1], elsewhere, MOUNT, SPEC,
                                     np.random.default_rng(3)))
@@ -175,7 +175,7 @@ def test_corridor_match_fixes_only_the_lateral_position_and_heading():
     corridor (which it cannot know), and must not move the trajectory along it."""
     world = S.rect_world((28.0, 2.6), 0.05, [])
     truth, scans = _keyframes(world, [(6.0, 1.3), (19.0, 1.3), (12.0, 1.3)])
-    cfg = PG.LoopClosureConfig()
+    cfg = PG.LoopClosureConfig(enabled=True)
     graph = PG.PoseGraph(cfg)
     # the estimates slide 2 cm per metre along the corridor on the way back
     inc = P.relative(truth[:-1], truth[1:])
@@ -218,12 +218,12 @@ def test_optimise_distributes_a_loop_residual():
 
 
 def test_mapper_closes_the_office_loop_and_keeps_tf_consistent():
-    """The node's core with loop closure on (the default), drifting odometry: the loop is
+    """The node's core with loop closure on, drifting odometry: the loop is
     found, the map agrees with the truth, and map -> odom -> base is the corrected pose."""
     cfg = from_params(M.MapperConfig, {"linearUpdate": 0.25, "angularUpdate": 0.25,
                                        "maxUrange": 3.9, "maxRange": 4.5, "lskip": 2,
                                        "srr": 0.03, "str": 0.05, "iterations": 8,
-                                       "particles": 10}.get)
+                                       "particles": 10, "loop_closure": True}.get)
     assert cfg.loop.enabled
     world = S.office_world()
     traj = S.waypoint_trajectory(S.office_loop_waypoints(), v=0.3, w=0.6, dt=0.4)

@@ -51,7 +51,8 @@ class LoopClosureConfig:
     """Loop-closure parameters (stand-in only; gmapping has none), read by the mapper node
     as private parameters with these names."""
 
-    enabled: bool = param(True, "pose-graph loop closure on/off", "loop_closure")
+    # off by default: on the corridor benchmark it did not yet improve the map (results)
+    enabled: bool = param(False, "pose-graph loop closure on/off", "loop_closure")
     search_radius_m: float = param(3.0, "[m] old keyframes this close to the current pose "
                                    "are loop candidates", "loop_search_radius_m", gt=0.0)
     min_travel_m: float = param(10.0, "[m] candidates lie at least this far back along the "
