@@ -2,7 +2,7 @@
 100 m x 25 m, a 242 m drive round it) within the correction bound. No ROS master: the
 node's core (``SlamMapper``, config/gmapping.yaml but 10 particles to keep the test short)
 is fed with scans of ascc_sim's URG-04LX model and odometry of its wheel-encoder error
-model, one scan per filter update (about 1000 updates; 40-80 s)."""
+model, one scan per filter update (about 1000 updates; 35 s alone, up to 120 s under load)."""
 
 import math
 import os
