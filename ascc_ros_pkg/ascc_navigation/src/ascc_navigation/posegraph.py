@@ -7,10 +7,11 @@ map. This module keeps, next to the filter, one keyframe per filter update:
 
 * **node** k: the filter's best pose at update k (base frame in the map frame) and that
   update's ``PreparedScan`` (base frame; float32 copies);
-* **sequential edge** k-1 -> k: the filter-independent relative motion, from matching scan k
-  against a local submap of the previous ``local_keyframes`` scans placed along this
-  front-end chain, starting from the odometry increment (so a jump of the filter's pose,
-  when its matcher snaps onto old parts of the map, is *not* an edge measurement);
+* **sequential edge** k-1 -> k: on fresh ground the filter's own increment; where old
+  keyframes are near (``_revisiting``: the filter's matcher may snap onto old parts of its
+  map, and its increments then hold part of the loop correction) a filter-independent
+  one, from matching scan k against a local submap of the previous ``local_keyframes``
+  scans placed along the chain of edges, starting from the odometry increment;
 * **loop edge** j -> k: when the robot is within ``search_radius_m`` of keyframes that lie
   more than ``min_travel_m`` back along the path, scan k is matched against a submap of those
   old keyframes' scans at their node poses: a correlative search (likelihood field from
