@@ -9,7 +9,7 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-pytest.importorskip("PyQt5", reason="PyQt5 comes from Debian/Ubuntu's python3-pyqt5")
+pytest.importorskip("PyQt5.QtWidgets", reason="PyQt5 comes from Debian/Ubuntu's python3-pyqt5")
 from PyQt5.QtCore import QPoint, Qt  # noqa: E402
 from PyQt5.QtTest import QTest  # noqa: E402
 from PyQt5.QtWidgets import QApplication  # noqa: E402

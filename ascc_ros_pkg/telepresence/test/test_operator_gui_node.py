@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("PyQt5", reason="PyQt5 comes from Debian/Ubuntu's python3-pyqt5")
+pytest.importorskip("PyQt5.QtWidgets", reason="PyQt5 comes from Debian/Ubuntu's python3-pyqt5")
 NODE = Path(__file__).resolve().parents[1] / "nodes" / "operator_gui"
 
 
