@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Run rostest launch files one after another and judge them by rostest's own results.
+"""Run rostest launch files and judge them by rostest's own results.
 
 `rostest --text` exits 0 whatever its test scripts report, so this runner never uses it.
 Each file runs as `rostest --results-base-dir DIR FILE` (own master on a free port, own
@@ -17,7 +17,14 @@ Prints a line per file, then `rostest: N files, C cases passed, F failed[, S ski
 exits 1 if anything failed (also when the selection is empty), 0 otherwise.
 ``--summary-file`` writes the counts as JSON for scripts/run_tests.sh.
 
-    run_rostests.py [--filter REGEX] [--timeout-s S] [--summary-file F] PATH...
+``--jobs 1`` (the default) runs the files one after another, their output live. With
+``--jobs 2`` a file may run beside another, by what it says of itself in a comment:
+``run_rostests: light`` (little CPU: no simulator at speed, no camera rendering, no model
+training) may run beside any file but an exclusive one; ``run_rostests: exclusive`` runs
+alone, before the others; any other file is heavy: never beside another heavy one. Each
+file's output is then shown as a block when it ends.
+
+    run_rostests.py [--filter REGEX] [--jobs N] [--timeout-s S] [--summary-file F] PATH...
 
 PATH is a .test file or a folder searched for *.test (hidden folders skipped).
 """
@@ -45,6 +52,19 @@ def find_tests(paths):
             found.update(os.path.normpath(os.path.join(root, f))
                          for f in files if f.endswith(".test"))
     return sorted(found)
+
+
+LANE_MARK = re.compile(r"run_rostests:\s*(light|exclusive)\b")
+
+
+def lane_of(test_file):
+    """"light", "exclusive" or "heavy": what the file's comments say of it."""
+    try:
+        with open(test_file) as f:
+            m = LANE_MARK.search(f.read())
+    except OSError:
+        return "heavy"
+    return m.group(1) if m else "heavy"
 
 
 def _first_line(text, limit=300):
@@ -102,24 +122,101 @@ def judge(cases, rc, killed_after_s):
     return passed, failed, skipped, reasons
 
 
-def run_one(test_file, results_dir, timeout_s):
-    """Run one .test file; return (rc, seconds, killed_after_s or None)."""
-    env = dict(os.environ, ROS_LOG_DIR=os.path.join(results_dir, "log"))
-    cmd = ["rostest", "--results-base-dir", results_dir, test_file]
-    start = time.monotonic()
-    proc = subprocess.Popen(cmd, env=env, start_new_session=True)
-    killed = None
-    try:
-        rc = proc.wait(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        killed = time.monotonic() - start
-        os.killpg(proc.pid, signal.SIGINT)          # let roslaunch tear its nodes down
+class Run:
+    """One .test file's rostest process (own session, so a timeout kills its nodes);
+    ``output``: a file for its output, or None for the runner's own stdout."""
+
+    def __init__(self, index, test_file, results_dir, timeout_s, output=None):
+        self.index, self.test_file, self.results_dir = index, test_file, results_dir
+        self.lane = lane_of(test_file)
+        self.output = output
+        env = dict(os.environ, ROS_LOG_DIR=os.path.join(results_dir, "log"))
+        cmd = ["rostest", "--results-base-dir", results_dir, test_file]
+        self.start = time.monotonic()
+        self.deadline = self.start + timeout_s
+        out = open(output, "w") if output else None
         try:
-            rc = proc.wait(timeout=20.0)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            rc = proc.wait()
-    return rc, time.monotonic() - start, killed
+            self.proc = subprocess.Popen(cmd, env=env, start_new_session=True, stdout=out,
+                                         stderr=subprocess.STDOUT if out else None)
+        finally:
+            if out:
+                out.close()
+        self.killed = None
+        self.rc = None
+
+    def poll(self):
+        """The exit code once it has ended (killed at its deadline), else None."""
+        if self.rc is None:
+            rc = self.proc.poll()
+            if rc is None and time.monotonic() > self.deadline:
+                self.killed = time.monotonic() - self.start
+                os.killpg(self.proc.pid, signal.SIGINT)  # let roslaunch tear its nodes down
+                try:
+                    rc = self.proc.wait(timeout=20.0)
+                except subprocess.TimeoutExpired:
+                    os.killpg(self.proc.pid, signal.SIGKILL)
+                    rc = self.proc.wait()
+            self.rc = rc
+            self.seconds = time.monotonic() - self.start
+        return self.rc
+
+
+def run_one(test_file, results_dir, timeout_s):
+    """Run one .test file, its output live; return (rc, seconds, killed_after_s or None)."""
+    r = Run(0, test_file, results_dir, timeout_s)
+    while r.poll() is None:
+        time.sleep(0.2)
+    return r.rc, r.seconds, r.killed
+
+
+def may_start(lane, running):
+    """Whether a file of ``lane`` may start beside the ``running`` ones."""
+    lanes = [r.lane for r in running]
+    if "exclusive" in lanes:
+        return False
+    if lane == "exclusive":
+        return not running
+    return lane == "light" or "heavy" not in lanes
+
+
+def run_in_order(tests, results_dir_of, timeout_s):
+    """Each file after the other, output live; yields (index, file, results dir, rc,
+    seconds, killed after s or None) as each ends."""
+    for i, test_file in enumerate(tests):
+        print("\n==== rostest %s (%d/%d) ====" % (test_file, i + 1, len(tests)), flush=True)
+        d = results_dir_of(i, test_file)
+        rc, seconds, killed = run_one(test_file, d, timeout_s)
+        yield i, test_file, d, rc, seconds, killed
+
+
+def run_in_lanes(tests, results_dir_of, timeout_s, jobs):
+    """Up to ``jobs`` files at a time as their lanes allow (``may_start``): exclusive
+    files first, alone, then the rest in their order; each file's output is shown when it
+    ends. Yields as ``run_in_order``."""
+    order = sorted(range(len(tests)), key=lambda k: lane_of(tests[k]) != "exclusive")
+    pending, running = list(order), []
+    while pending or running:
+        for k in list(pending):
+            if len(running) >= jobs:
+                break
+            if may_start(lane_of(tests[k]), running):
+                pending.remove(k)
+                d = results_dir_of(k, tests[k])
+                running.append(Run(k, tests[k], d, timeout_s,
+                                   os.path.join(d, "rostest_output.txt")))
+                print("[rostest] started %s (%s; %d/%d)" % (
+                    tests[k], running[-1].lane, len(tests) - len(pending), len(tests)),
+                    flush=True)
+            elif lane_of(tests[k]) == "exclusive":
+                break  # an exclusive file waits for the ones running; nothing jumps it
+        time.sleep(0.2)
+        for r in [r for r in running if r.poll() is not None]:
+            running.remove(r)
+            print("\n==== rostest %s (%d/%d, %s) ====" % (
+                r.test_file, r.index + 1, len(tests), r.lane), flush=True)
+            with open(r.output, errors="replace") as f:
+                sys.stdout.write(f.read())
+            yield r.index, r.test_file, r.results_dir, r.rc, r.seconds, r.killed
 
 
 def main(argv=None):
@@ -131,6 +228,8 @@ def main(argv=None):
     ap.add_argument("--results-dir", default=None,
                     help="where rostest writes XML and logs (default: a new temp folder)")
     ap.add_argument("--summary-file", default=None, help="write the counts here as JSON")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="files at a time (2: light files beside the others; see above)")
     args = ap.parse_args(argv)
 
     tests = find_tests(args.paths)
@@ -143,12 +242,16 @@ def main(argv=None):
     totals = {"files": len(tests), "files_failed": 0, "cases_passed": 0, "cases_failed": 0,
               "cases_skipped": 0, "failed_files": []}
     lines = []
-    for i, test_file in enumerate(tests):
-        print("\n==== rostest %s (%d/%d) ====" % (test_file, i + 1, len(tests)), flush=True)
-        results_dir = os.path.join(results_root, "%02d_%s" % (
+
+    def results_dir_of(i, test_file):
+        d = os.path.join(results_root, "%02d_%s" % (
             i, re.sub(r"[^A-Za-z0-9_.-]", "_", os.path.splitext(test_file)[0])))
-        os.makedirs(results_dir, exist_ok=True)
-        rc, seconds, killed = run_one(test_file, results_dir, args.timeout_s)
+        os.makedirs(d, exist_ok=True)
+        return d
+
+    runs = (run_in_order(tests, results_dir_of, args.timeout_s) if args.jobs <= 1
+            else run_in_lanes(tests, results_dir_of, args.timeout_s, args.jobs))
+    for _i, test_file, results_dir, rc, seconds, killed in runs:
         passed, failed, skipped, reasons = judge(read_results(results_dir), rc, killed)
         totals["cases_passed"] += passed
         totals["cases_failed"] += failed

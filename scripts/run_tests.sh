@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test of the stack: lint gates, pure-code tests (pytest, no master), then every
-# rostest launch file (each brings up its own master through rostest), one at a time,
-# judged by rostest's own JUnit results (scripts/run_rostests.py).
+# rostest launch file (each brings up its own master through rostest), two at a time where
+# a file says it is light (run_rostests.py --jobs 2: never two simulators at once), judged
+# by rostest's own JUnit results (scripts/run_rostests.py).
 # Prints "lint ...; pytest ...; rostest N files, C cases passed, F failed", then a closing
 # line "N passed, N failed" over all of them; exits non-zero on any failure.
 #   --lint-only     only ruff, vermin (Python 3.8 compatibility) and catkin_lint
@@ -9,6 +10,7 @@
 # The pure tests also run under Python 3.8 (scripts/test_py38.sh pins, focal), beside the
 # main pytest.
 #   ROSTEST_FILTER=regex   run only the .test files whose path matches (none: a failure)
+#   ROSTEST_JOBS=1         the rostest files one after another, their output live
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -103,7 +105,7 @@ if [ "$no_rostest" -eq 0 ]; then
   results_dir="$ROOT/.ws/test_results"
   rm -rf "$results_dir"; mkdir -p "$results_dir"
   python scripts/run_rostests.py --results-dir "$results_dir" --summary-file "$results_dir/summary.json" \
-    --filter "${ROSTEST_FILTER:-}" "${test_dirs[@]}"
+    --jobs "${ROSTEST_JOBS:-2}" --filter "${ROSTEST_FILTER:-}" "${test_dirs[@]}"
   rc=$?
   read -r rt_files rt_pass rt_fail rt_skip < <(python - "$results_dir/summary.json" <<'PY'
 import json, sys

@@ -5,6 +5,7 @@ passes) in a temporary folder, puts it on ROS_PACKAGE_PATH, and runs
 scripts/run_rostests.py on it with the real rostest. Needs the ROS environment
 (`source env.sh`), as `make test` provides.
 """
+import importlib.util
 import json
 import os
 import shutil
@@ -50,7 +51,7 @@ SCRIPTS = {
     "sleeps.py": "#!/usr/bin/env python3\nimport time\n\ntime.sleep(60)\n",
 }
 
-# test file -> (test type, extra attributes)
+# test file -> (test type, extra attributes); two say they are light (run_rostests --jobs)
 TESTS = {
     "passing.test": ("passes.py", ""),
     "failing.test": ("fails.py", ""),
@@ -58,6 +59,7 @@ TESTS = {
     "missing.test": ("does_not_exist.py", ""),
     "overtime.test": ("sleeps.py", ' time-limit="3"'),
 }
+LIGHT = ("passing.test", "crashing.test")
 
 
 @pytest.fixture(scope="module")
@@ -72,9 +74,10 @@ def probe(tmp_path_factory):
         path.write_text(text)
         path.chmod(path.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
     for name, (script, attrs) in TESTS.items():
+        mark = "<!-- run_rostests: light -->" if name in LIGHT else ""
         (test_dir / name).write_text(
-            '<launch><test test-name="%s" pkg="runner_probe" type="%s"%s/></launch>\n'
-            % (name[:-5], script, attrs))
+            '<launch>%s<test test-name="%s" pkg="runner_probe" type="%s"%s/></launch>\n'
+            % (mark, name[:-5], script, attrs))
     env = dict(os.environ)
     env["ROS_PACKAGE_PATH"] = "%s:%s" % (root, env.get("ROS_PACKAGE_PATH", ""))
     return test_dir, env
@@ -105,6 +108,57 @@ def test_every_way_of_failing_fails_the_run(probe, tmp_path):
     assert "does not exist or is not executable" in out
     assert "max time [3.0s]" in out
     assert out.rstrip().splitlines()[-1] == "rostest: 5 files, 2 cases passed, 4 failed"
+
+
+def test_two_at_a_time_gives_the_same_verdicts(probe, tmp_path):
+    rc, out, counts = run(probe, tmp_path, "--jobs", "2")
+    assert rc == 1, out
+    assert counts["files"] == 5 and counts["files_failed"] == 4, out
+    assert (counts["cases_passed"], counts["cases_failed"]) == (2, 4), out
+    failed = {os.path.basename(f) for f in counts["failed_files"]}
+    assert failed == {"failing.test", "crashing.test", "missing.test", "overtime.test"}
+    assert "FAILED __main__.Probe.test_fails: 1 != 2" in out  # each file's output shown
+    assert "max time [3.0s]" in out
+    assert out.count("[rostest] started") == 5
+    assert "passing.test (light;" in out and "failing.test (heavy;" in out
+    assert out.rstrip().splitlines()[-1] == "rostest: 5 files, 2 cases passed, 4 failed"
+
+
+def _runner_module():
+    spec = importlib.util.spec_from_file_location("run_rostests", RUNNER)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+class _Running:
+    def __init__(self, lane):
+        self.lane = lane
+
+
+@pytest.mark.parametrize("lane, running, ok", [
+    ("heavy", [], True),
+    ("heavy", ["light"], True),
+    ("heavy", ["heavy"], False),          # never two heavy files at once
+    ("light", ["heavy"], True),
+    ("light", ["light"], True),
+    ("light", ["exclusive"], False),
+    ("exclusive", ["light"], False),      # an exclusive file runs alone
+    ("exclusive", [], True),
+])
+def test_lanes(lane, running, ok):
+    assert _runner_module().may_start(lane, [_Running(x) for x in running]) is ok
+
+
+def test_lane_marks(tmp_path):
+    mod = _runner_module()
+    for text, lane in [("<launch/>", "heavy"),
+                       ("<!-- run_rostests: light (a pty and a fake) --><launch/>", "light"),
+                       ("<!--\n  run_rostests: exclusive\n--><launch/>", "exclusive")]:
+        f = tmp_path / "x.test"
+        f.write_text(text)
+        assert mod.lane_of(str(f)) == lane
+    assert mod.lane_of(str(tmp_path / "missing.test")) == "heavy"
 
 
 def test_a_passing_selection_passes(probe, tmp_path):
