@@ -89,10 +89,14 @@ def test_corridor_loop_closes_within_the_bound():
             old = np.hypot(*(poses_before[:, :2] - truth[:-1, :2]).T)
             before_after.append((old.mean(), err[:-1].mean()))
     assert closed, "the corridor loop did not close"
-    # every applied closure stayed within the bound and the first one made the
-    # trajectory (keyframes vs the truth) better
+    # every applied closure stayed within the bound and did no harm: the trajectory
+    # (keyframes vs the truth) no worse than before it by more than 1 cm. On this corridor
+    # the filter itself has kept the loop's error near 0.1 m, and the closure moves it by
+    # well under a millimetre, either way with the library versions (Ubuntu 20.04's
+    # numpy/OpenCV: 0.10831 -> 0.10836 m; Debian 12's: lower); that a closure removes a
+    # known drift is test_posegraph.py's test (0.318 -> 0.105 m mean).
     assert all(r.correction_m <= cfg.loop.max_correction_m for r in closed)
-    assert before_after[0][1] < before_after[0][0], before_after
+    assert all(after <= before + 0.01 for before, after in before_after), before_after
     # the loop's end: map -> odom -> base near the truth, map close to the floor plan
     end = compose(mapper.map_to_odom(), odom[steps[-1]])
     assert math.hypot(end[0] - traj[steps[-1], 0], end[1] - traj[steps[-1], 1]) < 0.2
