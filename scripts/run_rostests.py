@@ -126,9 +126,9 @@ class Run:
     """One .test file's rostest process (own session, so a timeout kills its nodes);
     ``output``: a file for its output, or None for the runner's own stdout."""
 
-    def __init__(self, index, test_file, results_dir, timeout_s, output=None):
+    def __init__(self, index, test_file, results_dir, timeout_s, output=None, lane=None):
         self.index, self.test_file, self.results_dir = index, test_file, results_dir
-        self.lane = lane_of(test_file)
+        self.lane = lane or lane_of(test_file)
         self.output = output
         env = dict(os.environ, ROS_LOG_DIR=os.path.join(results_dir, "log"))
         cmd = ["rostest", "--results-base-dir", results_dir, test_file]
@@ -193,21 +193,22 @@ def run_in_lanes(tests, results_dir_of, timeout_s, jobs):
     """Up to ``jobs`` files at a time as their lanes allow (``may_start``): exclusive
     files first, alone, then the rest in their order; each file's output is shown when it
     ends. Yields as ``run_in_order``."""
-    order = sorted(range(len(tests)), key=lambda k: lane_of(tests[k]) != "exclusive")
+    lanes = [lane_of(t) for t in tests]  # read once, not on every poll
+    order = sorted(range(len(tests)), key=lambda k: lanes[k] != "exclusive")
     pending, running = list(order), []
     while pending or running:
         for k in list(pending):
             if len(running) >= jobs:
                 break
-            if may_start(lane_of(tests[k]), running):
+            if may_start(lanes[k], running):
                 pending.remove(k)
                 d = results_dir_of(k, tests[k])
                 running.append(Run(k, tests[k], d, timeout_s,
-                                   os.path.join(d, "rostest_output.txt")))
+                                   os.path.join(d, "rostest_output.txt"), lanes[k]))
                 print("[rostest] started %s (%s; %d/%d)" % (
                     tests[k], running[-1].lane, len(tests) - len(pending), len(tests)),
                     flush=True)
-            elif lane_of(tests[k]) == "exclusive":
+            elif lanes[k] == "exclusive":
                 break  # an exclusive file waits for the ones running; nothing jumps it
         time.sleep(0.2)
         for r in [r for r in running if r.poll() is not None]:
