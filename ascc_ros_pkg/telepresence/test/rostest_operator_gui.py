@@ -165,7 +165,7 @@ class OperatorGuiTest(unittest.TestCase):
         qt_wait_for(goal_active, 10.0, "move_base's goal active")
         qt_wait_for(lambda: w.drive.cancel_button.isEnabled(), 5.0, "cancel enabled")
         qt_wait_for(lambda: "active" in w.status.text("goal"), 5.0, "goal shown active")
-        goal = self.adapter.goal_client.gh.comm_state_machine.action_goal.goal.target_pose
+        goal = self.adapter.goal_handle.comm_state_machine.action_goal.goal.target_pose
         self.assertEqual(goal.header.frame_id, "map")
         self.assertLess(math.hypot(goal.pose.position.x - gx, goal.pose.position.y - gy),
                         2.0 / w.map.view.px_per_m + 0.05)

@@ -92,7 +92,9 @@ class RosAdapter(AdapterSignals):
         self.master_ok = True
         self.master_pid = None
         self.link_text = None
-        self.goal_handle_lock = threading.Lock()
+        self.goal_handle_lock = threading.Lock()  # guards goal_seq and goal_handle
+        self.goal_seq = 0  # the newest goal sent; transitions of older ones are ignored
+        self.goal_handle = None  # the newest goal's actionlib ClientGoalHandle
         self.io = []
         self.goal_client = None
         self.estop_state = None
@@ -142,8 +144,12 @@ class RosAdapter(AdapterSignals):
                              lambda m: self.gesture_state.emit(m.data), queue_size=1),
         ]
         if self.goal_client is not None:
-            self.goal_client.action_client.stop()
-        self.goal_client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+            self.goal_client.stop()
+        # actionlib.ActionClient, not SimpleActionClient: Noetic's SimpleActionClient
+        # drops a transition that arrives before send_goal has returned ("not tracking",
+        # ros/actionlib#206), and active_cb is then never called; here each goal's
+        # callback knows its own sequence number before the goal leaves
+        self.goal_client = actionlib.ActionClient("move_base", MoveBaseAction)
 
     def on_master(self, reachable, text, pid):
         restarted = reachable and self.master_pid is not None and pid != self.master_pid
@@ -254,17 +260,32 @@ class RosAdapter(AdapterSignals):
             self.goal_status.emit("no move_base action server: goal not sent", False, True)
             return
         self.goal_status.emit("sent (%.2f, %.2f)" % (x, y), True, False)  # before: the
-        # callbacks come from actionlib's thread, queued after it
-        self.goal_client.send_goal(goal, done_cb=self.on_goal_done,
-                                   active_cb=lambda: self.goal_status.emit(
-                                       "active (%.2f, %.2f)" % (x, y), True, False))
+        # transitions come from actionlib's thread, queued after it
+        with self.goal_handle_lock:
+            self.goal_seq += 1
+            seq = self.goal_seq
+        handle = self.goal_client.send_goal(
+            goal, transition_cb=lambda gh: self.on_goal_transition(seq, gh, x, y))
+        with self.goal_handle_lock:
+            if seq == self.goal_seq:
+                self.goal_handle = handle
 
     def cancel_goal(self):
         self.goal_client.cancel_all_goals()
 
-    def on_goal_done(self, state, _result):
-        text = GOAL_TEXT.get(state, "state %d" % state)
-        self.goal_status.emit(text, False, state not in (2, 3, 8))
+    def on_goal_transition(self, seq, gh, x, y):
+        """actionlib's thread: the goal's communication state changed."""
+        from actionlib import CommState
+        with self.goal_handle_lock:
+            if seq != self.goal_seq:
+                return  # a goal replaced by a newer one
+        comm = gh.get_comm_state()
+        if comm == CommState.ACTIVE:
+            self.goal_status.emit("active (%.2f, %.2f)" % (x, y), True, False)
+        elif comm == CommState.DONE:
+            state = gh.get_goal_status()
+            text = GOAL_TEXT.get(state, "state %d" % state)
+            self.goal_status.emit(text, False, state not in (2, 3, 8))
 
 
 def make_window(uri, title):
