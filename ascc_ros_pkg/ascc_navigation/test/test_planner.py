@@ -180,3 +180,172 @@ def test_footprint_padding_closes_narrow_passages():
                     start, goal).ok
     assert not pln.plan(pln.Costmap(grid, info, pln.PlannerParams(footprint_padding=0.1)),
                         start, goal).ok
+
+
+# -- the lean costmap and planner (issue 24): same results as building / searching it all --
+
+def _reference_costmap(grid, info, params):
+    """lethal and weight by the original full-grid recipe: uncapped distance transform of
+    the whole map, pooled per planning cell."""
+    import cv2
+    occupied = grid >= pln.OCCUPIED_MIN
+    clear = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2,
+                                  cv2.DIST_MASK_PRECISE) * info.resolution
+    f = max(1, int(round(params.resolution / info.resolution)))
+    rows, cols = -(-grid.shape[0] // f), -(-grid.shape[1] // f)
+    pad = ((0, rows * f - grid.shape[0]), (0, cols * f - grid.shape[1]))
+    clear = np.pad(clear, pad, constant_values=np.inf).reshape(rows, f, cols, f).min(axis=(1, 3))
+    unknown = np.pad(grid < 0, pad, constant_values=True).reshape(rows, f, cols, f).all(axis=(1, 3))
+    lethal = clear < (params.robot_radius + params.footprint_padding
+                      + info.resolution * (0.5 + np.sqrt(0.5)))
+    d = np.maximum(clear - params.robot_radius, 0.0)
+    infl = np.where(clear < params.inflation_radius,
+                    params.inflation_weight * np.exp(-params.cost_scaling_factor * d), 0.0)
+    return lethal, 1.0 + infl + params.unknown_cost * unknown
+
+
+def _random_map(rng, shape):
+    """Rooms of free space with random walls, blobs and unknown patches."""
+    grid = np.full(shape, FREE, dtype=np.int8)
+    for _ in range(12):
+        r, c = rng.integers(0, shape[0]), rng.integers(0, shape[1])
+        h, w = rng.integers(1, 8), rng.integers(1, 40)
+        grid[r:r + h, c:c + w] = OCCUPIED if rng.random() < 0.6 else UNKNOWN
+    return grid
+
+
+def _edit(rng, grid):
+    """A map update: a few random boxes of cells set to free / occupied / unknown."""
+    grid = grid.copy()
+    for _ in range(rng.integers(1, 4)):
+        r, c = rng.integers(0, grid.shape[0]), rng.integers(0, grid.shape[1])
+        h, w = rng.integers(1, 15), rng.integers(1, 15)
+        grid[r:r + h, c:c + w] = rng.choice([FREE, OCCUPIED, UNKNOWN])
+    return grid
+
+
+def _assert_same_costmap(a, b):
+    for name in ("clearance", "unknown", "occupied", "lethal", "weight"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+@pytest.mark.parametrize("map_res", [0.05, 0.1])
+def test_capped_costmap_equals_the_full_recipe(map_res):
+    rng = np.random.default_rng(7)
+    grid = _random_map(rng, (121, 203))  # odd sizes: padded planning cells
+    info = GridInfo(map_res, 203, 121, -3.0, 2.0)
+    params = pln.PlannerParams()
+    costmap = pln.Costmap(grid, info, params)
+    lethal, weight = _reference_costmap(grid, info, params)
+    assert lethal.any() and (weight > 1.0).any() and (~lethal).any()
+    assert np.array_equal(costmap.lethal, lethal)
+    assert np.array_equal(costmap.weight, weight)
+
+
+@pytest.mark.parametrize("map_res", [0.05, 0.1])
+def test_incremental_costmap_equals_rebuilding_it(map_res):
+    rng = np.random.default_rng(11)
+    params = pln.PlannerParams()
+    grid = _random_map(rng, (121, 203))
+    info = GridInfo(map_res, 203, 121, -3.0, 2.0)
+    costmap = pln.Costmap(grid, info, params)
+    for _ in range(25):
+        grid = _edit(rng, grid)
+        costmap = costmap.updated(grid, info)
+        _assert_same_costmap(costmap, pln.Costmap(grid, info, params))
+    # an unchanged map and one changed on its border (partial planning cells)
+    _assert_same_costmap(costmap.updated(grid, info), pln.Costmap(grid, info, params))
+    grid = grid.copy()
+    grid[-1, -3:] = OCCUPIED
+    _assert_same_costmap(costmap.updated(grid, info), pln.Costmap(grid, info, params))
+
+
+def test_incremental_costmap_of_a_grown_map_equals_rebuilding_it():
+    """The mapper grows its map by whole cells on any side; new cells may hold walls."""
+    rng = np.random.default_rng(5)
+    params = pln.PlannerParams()
+    grid = _random_map(rng, (81, 101))
+    info = GridInfo(0.05, 101, 81, 0.0, 0.0)
+    costmap = pln.Costmap(grid, info, params)
+    for left, bottom, right, top in ((4, 0, 0, 0), (0, 6, 3, 0), (2, 2, 2, 2), (0, 0, 7, 5),
+                                     (3, 0, 0, 0)):  # the last: not planning-cell aligned
+        info = info.grown(left, bottom, right, top)
+        bigger = np.full(info.shape, UNKNOWN, dtype=np.int8)
+        bigger[bottom:bottom + grid.shape[0], left:left + grid.shape[1]] = grid
+        bigger[:bottom + 2, :] = np.where(rng.random((bottom + 2, info.width)) < 0.1,
+                                          OCCUPIED, FREE)
+        grid = _edit(rng, bigger)
+        costmap = costmap.updated(grid, info)
+        _assert_same_costmap(costmap, pln.Costmap(grid, info, params))
+
+
+def test_incremental_costmap_does_not_see_later_edits_of_the_callers_array():
+    params = pln.PlannerParams()
+    grid = np.full((40, 40), FREE, dtype=np.int8)
+    info = GridInfo(0.05, 40, 40)
+    costmap = pln.Costmap(grid, info, params)
+    grid[20, 20] = OCCUPIED  # edited in place, then given again
+    _assert_same_costmap(costmap.updated(grid, info), pln.Costmap(grid, info, params))
+
+
+def _plan_on_whole_grid(costmap, start_xy, goal_xy):
+    """The path the planner made before it searched in windows: cost-to-goal of every cell."""
+    start, goal = costmap.to_cell(start_xy), costmap.to_cell(goal_xy)
+    dist, _ = pln.cost_to_goal(costmap, goal)
+    if dist[start] >= pln.LETHAL:
+        return None, None
+    return pln.descend(dist, costmap, start, goal), int(dist[start])
+
+
+@pytest.mark.parametrize("world", ["office", "random"])
+def test_windowed_search_gives_the_whole_grid_plan(world, office):
+    rng = np.random.default_rng(3)
+    if world == "office":
+        grid, info = office
+    else:
+        grid = _random_map(rng, (160, 400))
+        info = GridInfo(0.05, 400, 160)
+    costmap = pln.Costmap(grid, info, pln.PlannerParams())
+    free = np.argwhere(~costmap.lethal)
+    grown = 0
+    for _ in range(30):
+        a, b = free[rng.integers(len(free), size=2)]
+        start_xy, goal_xy = costmap.to_world([a[0]], [a[1]])[0], costmap.to_world([b[0]], [b[1]])[0]
+        cells, cost = _plan_on_whole_grid(costmap, start_xy, goal_xy)
+        start, goal = tuple(a), tuple(b)
+        dist, window, (r0, c0), _ = pln.windowed_cost_to_goal(costmap, start, goal)
+        r_0, r_1, c_0, c_1 = _first_window(costmap, start, goal)
+        grown += window.lethal.shape != (r_1 - r_0, c_1 - c_0)
+        if cells is None:
+            assert dist[start[0] - r0, start[1] - c0] >= pln.LETHAL
+            continue
+        assert int(dist[start[0] - r0, start[1] - c0]) == cost
+        got = pln.descend(dist, window, (start[0] - r0, start[1] - c0),
+                          (goal[0] - r0, goal[1] - c0)) + (r0, c0)
+        assert np.array_equal(got, cells)
+        result = pln.plan(costmap, start_xy, goal_xy)
+        assert result.ok and result.cost == pytest.approx(cost / pln.UNIT * costmap.resolution)
+    if world == "office":  # some searches had to grow their window round the block
+        assert grown > 0
+
+
+def _first_window(costmap, start, goal):
+    rows, cols = costmap.shape
+    m = max(pln.WINDOW_MARGIN, max(abs(start[0] - goal[0]), abs(start[1] - goal[1])) // 2)
+    return (max(min(start[0], goal[0]) - m, 0), min(max(start[0], goal[0]) + m + 1, rows),
+            max(min(start[1], goal[1]) - m, 0), min(max(start[1], goal[1]) + m + 1, cols))
+
+
+def test_a_detour_outside_the_first_window_is_found():
+    """A wall between start and goal whose only gap is far away: the window must grow."""
+    grid = np.full((300, 120), FREE, dtype=np.int8)
+    grid[150:152, :] = OCCUPIED
+    grid[150:152, 110:118] = FREE  # the gap, 10 m to the side at 0.1 m
+    info = GridInfo(0.1, 120, 300)
+    costmap = pln.Costmap(grid, info, pln.PlannerParams())
+    result = pln.plan(costmap, (0.5, 13.0), (0.5, 17.0))
+    cells, cost = _plan_on_whole_grid(costmap, (0.5, 13.0), (0.5, 17.0))
+    assert result.ok and cells is not None
+    assert result.cost == pytest.approx(cost / pln.UNIT * costmap.resolution)
+    assert result.path[:, 0].max() > 11.0  # through the gap
+    assert pln.path_length(result.path) > 20.0

@@ -24,6 +24,7 @@ the laser points in the base frame, and returns the velocity command and the goa
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import List, Optional, Sequence
 
@@ -127,11 +128,35 @@ class _MapData:
     stamp: int  # increases with every update
 
 
-def _make_plan(grid: np.ndarray, info: GridInfo, params: pln.PlannerParams,
-               marks: Optional[np.ndarray], start_xy: np.ndarray,
-               goal_xy: np.ndarray) -> pln.PlanResult:
-    """Costmap + plan from a snapshot of the inputs (runs in the executor when async)."""
-    return pln.plan(pln.Costmap(grid, info, params, marks), start_xy, goal_xy)
+class CostmapCache:
+    """The costmap of the newest map planned on, brought up to date incrementally
+    (``Costmap.updated``: only the cells near what changed are recomputed). Thread-safe:
+    the control loop and the planner thread may both plan."""
+
+    def __init__(self, params: pln.PlannerParams):
+        self.params = params
+        self.lock = threading.Lock()
+        self.stamp = -1
+        self.costmap: Optional[pln.Costmap] = None
+
+    def get(self, m: _MapData) -> pln.Costmap:
+        with self.lock:
+            if m.stamp != self.stamp or self.costmap is None:
+                self.costmap = pln.Costmap(m.grid, m.info, self.params) \
+                    if self.costmap is None else self.costmap.updated(m.grid, m.info)
+                self.stamp = m.stamp
+            return self.costmap
+
+
+def _make_plan(costmaps: CostmapCache, m: _MapData, marks: Optional[np.ndarray],
+               start_xy: np.ndarray, goal_xy: np.ndarray) -> pln.PlanResult:
+    """Costmap + plan from a snapshot of the inputs (runs in the executor when async).
+    Laser marks (recovery) make a costmap of their own; else the cached one is used."""
+    if marks is not None and len(marks):
+        costmap = pln.Costmap(m.grid, m.info, costmaps.params, marks)
+    else:
+        costmap = costmaps.get(m)
+    return pln.plan(costmap, start_xy, goal_xy)
 
 
 class Navigator:
@@ -146,6 +171,7 @@ class Navigator:
         self.follower = ctl.PathFollower(controller_params)
         self.executor = executor
         self.map: Optional[_MapData] = None
+        self.costmaps = CostmapCache(self.planner_params)
         self.goal: Optional[_Goal] = None
         self.status = IDLE
         # the executor's future of the plan being made for the current goal (None: none)
@@ -235,8 +261,8 @@ class Navigator:
     def _plan(self, pose: Sequence[float], now: float,
               marks: Optional[np.ndarray]) -> pln.PlanResult:
         m = self.map
-        result = _make_plan(m.grid, m.info, self.planner_params, marks,
-                            np.asarray(pose[:2], dtype=float), self.goal.xy)
+        result = _make_plan(self.costmaps, m, marks, np.asarray(pose[:2], dtype=float),
+                            self.goal.xy)
         self.last_plan_time = now
         self.planned_map = m.stamp
         return result
@@ -244,7 +270,7 @@ class Navigator:
     def _submit(self, pose: Sequence[float], now: float, marks: Optional[np.ndarray]) -> None:
         """Async: hands a snapshot of the planning inputs to the executor."""
         m = self.map
-        self.job = self.executor.submit(_make_plan, m.grid, m.info, self.planner_params, marks,
+        self.job = self.executor.submit(_make_plan, self.costmaps, m, marks,
                                         np.array(pose[:2], dtype=float), self.goal.xy.copy())
         self.last_plan_time = now
         self.planned_map = m.stamp

@@ -20,6 +20,7 @@
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from typing import Optional, Sequence, Tuple
 
@@ -35,6 +36,7 @@ UNIT = 1000  # integer cost of one straight step over a free cell
 DIAG = 1414  # integer cost of one diagonal step over a free cell (sqrt 2 * UNIT)
 LETHAL = 10 ** 12  # step cost into a lethal cell; any sum above it means "no way through"
 INF = 2 ** 62  # cost-to-goal of cells not reached (stays far from int64 overflow)
+WINDOW_MARGIN = 20  # planning cells round start and goal of the first search window
 
 
 @dataclass
@@ -78,7 +80,13 @@ class PlanResult:
 
 
 class Costmap:
-    """Planning grid: step costs per cell, lethal mask, world <-> cell conversions."""
+    """Planning grid: step costs per cell, lethal mask, world <-> cell conversions.
+
+    ``clearance`` is capped at ``clearance_cap`` [m] (beyond the inflation radius and the
+    lethal distance nothing depends on it), so that it can be recomputed in a window: a
+    cell's capped clearance only depends on the map cells within the cap. ``updated``
+    builds the costmap of a newer map from this one by recomputing only the planning cells
+    within the cap of the map cells that changed (equal to building it anew)."""
 
     def __init__(self, grid: np.ndarray, info: GridInfo, params: Optional[PlannerParams] = None,
                  obstacles: Optional[np.ndarray] = None):
@@ -90,43 +98,131 @@ class Costmap:
         if grid.shape != info.shape or grid.size == 0:
             raise ValueError("occupancy grid of shape %s does not match %r" % (grid.shape, info))
         info.check_axis_aligned()
-        map_resolution = info.resolution
-        occupied = grid >= OCCUPIED_MIN
-        if obstacles is not None and len(obstacles):
-            occupied = occupied.copy()
+        self.grid, self.info = grid.copy(), info  # the map this costmap is of
+        self.marked = obstacles is not None and len(obstacles) > 0
+        occupied = None
+        if self.marked:
+            occupied = grid >= OCCUPIED_MIN
             col, row = info.world_to_cell(obstacles[:, 0], obstacles[:, 1])
             ok = info.contains(col, row)
             occupied[row[ok], col[ok]] = True
-        unknown = grid < 0
-        if occupied.any():
-            clear = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2,
-                                          cv2.DIST_MASK_PRECISE) * map_resolution
-        else:
-            clear = np.full(grid.shape, np.inf, dtype=np.float32)
+        map_resolution = info.resolution
         # coarse planning grid: f x f map cells per planning cell
         f = max(1, int(round(p.resolution / map_resolution)))
         self.factor = f
         self.resolution = map_resolution * f
         self.origin = (info.origin_x, info.origin_y)
-        rows, cols = -(-grid.shape[0] // f), -(-grid.shape[1] // f)
-        pad = ((0, rows * f - grid.shape[0]), (0, cols * f - grid.shape[1]))
-        clear = np.pad(clear, pad, constant_values=np.inf)
-        unknown = np.pad(unknown, pad, constant_values=True)
-        occupied = np.pad(occupied, pad, constant_values=False)
-        self.clearance = clear.reshape(rows, f, cols, f).min(axis=(1, 3))  # [m]
-        self.unknown = unknown.reshape(rows, f, cols, f).all(axis=(1, 3))
-        self.occupied = occupied.reshape(rows, f, cols, f).any(axis=(1, 3))
         # clearance is measured between cell centres: an obstacle's surface is half a map
         # cell nearer, and a point of a planning cell (so of a path segment) can be up to
         # half a map cell's diagonal from the nearest map-cell centre it was pooled from
-        self.lethal = self.clearance < (p.robot_radius + p.footprint_padding
-                                        + map_resolution * (0.5 + np.sqrt(0.5)))
+        self.lethal_clearance = p.robot_radius + p.footprint_padding \
+            + map_resolution * (0.5 + np.sqrt(0.5))
+        # one map cell beyond both thresholds: a capped value compares as an uncapped one
+        self.clearance_cap = max(self.lethal_clearance, p.inflation_radius) + map_resolution
+        rows, cols = -(-grid.shape[0] // f), -(-grid.shape[1] // f)
+        self.clearance = np.empty((rows, cols), dtype=np.float32)  # [m], capped
+        self.unknown = np.empty((rows, cols), dtype=bool)
+        self.occupied = np.empty((rows, cols), dtype=bool)
+        self.lethal = np.empty((rows, cols), dtype=bool)
+        self.weight = np.empty((rows, cols), dtype=float)  # x free step cost
+        self._fill(grid, occupied, 0, rows, 0, cols)
+
+    def _fill(self, grid: np.ndarray, occupied: Optional[np.ndarray], r0: int, r1: int,
+              c0: int, c1: int) -> None:
+        """Computes planning cells [r0:r1, c0:c1] from ``grid`` (and ``occupied``, the full
+        obstacle mask, if given; else ``grid >= OCCUPIED_MIN``)."""
+        p, f, res = self.params, self.factor, self.info.resolution
+        height, width = grid.shape
+        margin = int(np.ceil(self.clearance_cap / res)) + 1  # map cells an obstacle counts
+        mr0, mr1 = r0 * f, min(r1 * f, height)
+        mc0, mc1 = c0 * f, min(c1 * f, width)
+        wr0, wr1 = max(mr0 - margin, 0), min(mr1 + margin, height)
+        wc0, wc1 = max(mc0 - margin, 0), min(mc1 + margin, width)
+        occ = grid[wr0:wr1, wc0:wc1] >= OCCUPIED_MIN if occupied is None \
+            else occupied[wr0:wr1, wc0:wc1]
+        cap = np.float32(self.clearance_cap)
+        if occ.any():
+            # exact Euclidean distance [cells] up to float rounding, which depends on the
+            # image: the squared distance, an integer, is recovered and the root taken
+            # from it, so a window gives the same values as the whole map
+            cells = cv2.distanceTransform((~occ).astype(np.uint8), cv2.DIST_L2,
+                                          cv2.DIST_MASK_PRECISE)
+            np.minimum(cells, np.float32(margin), out=cells)
+            sq = np.rint(cells * cells)
+            clear = np.sqrt(sq) * np.float32(res)
+            clear[sq * (res * res) >= self.clearance_cap ** 2] = cap
+        else:
+            clear = np.full(occ.shape, cap, dtype=np.float32)
+        sub = slice(mr0 - wr0, mr1 - wr0), slice(mc0 - wc0, mc1 - wc0)
+        n_r, n_c = r1 - r0, c1 - c0
+        pad = ((0, n_r * f - (mr1 - mr0)), (0, n_c * f - (mc1 - mc0)))
+        clear = np.pad(clear[sub], pad, constant_values=cap)
+        unknown = np.pad(grid[mr0:mr1, mc0:mc1] < 0, pad, constant_values=True)
+        occ = np.pad(occ[sub], pad, constant_values=False)
+        block = slice(r0, r1), slice(c0, c1)
+        clearance = clear.reshape(n_r, f, n_c, f).min(axis=(1, 3))
+        self.clearance[block] = clearance
+        self.unknown[block] = unknown.reshape(n_r, f, n_c, f).all(axis=(1, 3))
+        self.occupied[block] = occ.reshape(n_r, f, n_c, f).any(axis=(1, 3))
+        lethal = clearance < self.lethal_clearance
         if not p.allow_unknown:
-            self.lethal |= self.unknown
-        d = np.maximum(self.clearance - p.robot_radius, 0.0)
-        infl = np.where(self.clearance < p.inflation_radius,
+            lethal |= self.unknown[block]
+        self.lethal[block] = lethal
+        d = np.maximum(clearance - p.robot_radius, 0.0)
+        infl = np.where(clearance < p.inflation_radius,
                         p.inflation_weight * np.exp(-p.cost_scaling_factor * d), 0.0)
-        self.weight = 1.0 + infl + p.unknown_cost * self.unknown  # x free step cost
+        self.weight[block] = 1.0 + infl + p.unknown_cost * self.unknown[block]
+
+    def updated(self, grid: np.ndarray, info: GridInfo) -> Costmap:
+        """The costmap of ``grid`` (a newer version of this map, same parameters): a new
+        object; only the planning cells near changed map cells are recomputed. A map that
+        grew by whole planning cells keeps the old cells; other geometry changes, and a
+        costmap with laser marks, are built anew."""
+        grid = np.asarray(grid)
+        f = self.factor
+        old = self.info
+        shift_c = (old.origin_x - info.origin_x) / info.resolution
+        shift_r = (old.origin_y - info.origin_y) / info.resolution
+        dc, dr = int(round(shift_c)), int(round(shift_r))
+        if (self.marked or grid.shape != info.shape or grid.size == 0
+                or abs(info.resolution - old.resolution) > 1e-12 * old.resolution
+                or not info.axis_aligned or abs(shift_c - dc) > 1e-6
+                or abs(shift_r - dr) > 1e-6 or dc % f or dr % f or dc < 0 or dr < 0
+                or dr + old.height > info.height or dc + old.width > info.width):
+            return Costmap(grid, info, self.params)
+        new = Costmap.__new__(Costmap)
+        new.__dict__.update(self.__dict__)
+        new.grid, new.info = grid.copy(), info
+        rows, cols = -(-grid.shape[0] // f), -(-grid.shape[1] // f)
+        pr, pc = dr // f, dc // f
+        old_rows, old_cols = self.clearance.shape
+        boxes = []  # map-cell boxes (r0, r1, c0, c1) to recompute
+        for name in ("clearance", "unknown", "occupied", "lethal", "weight"):
+            a = getattr(self, name)
+            b = np.empty((rows, cols), dtype=a.dtype)
+            b[pr:pr + old_rows, pc:pc + old_cols] = a
+            setattr(new, name, b)
+        if (rows, cols) != (old_rows, old_cols):  # grown: the new strips, and the old
+            # border cells (their padding is now map)
+            inner = (dr, dr + old.height, dc, dc + old.width)
+            boxes += [(0, inner[0] + f, 0, info.width),
+                      (inner[1] - f, info.height, 0, info.width),
+                      (0, info.height, 0, inner[2] + f),
+                      (0, info.height, inner[3] - f, info.width)]
+        changed = grid[dr:dr + old.height, dc:dc + old.width] != self.grid
+        rows_hit = np.flatnonzero(changed.any(axis=1))
+        if rows_hit.size:
+            cols_hit = np.flatnonzero(changed[rows_hit[0]:rows_hit[-1] + 1].any(axis=0))
+            boxes.append((dr + rows_hit[0], dr + rows_hit[-1] + 1,
+                          dc + cols_hit[0], dc + cols_hit[-1] + 1))
+        margin = int(np.ceil(self.clearance_cap / info.resolution)) + 1
+        for r0, r1, c0, c1 in boxes:
+            r0, c0 = max(r0 - margin, 0) // f, max(c0 - margin, 0) // f
+            r1 = min(-(-(r1 + margin) // f), rows)
+            c1 = min(-(-(c1 + margin) // f), cols)
+            if r0 < r1 and c0 < c1:
+                new._fill(grid, None, r0, r1, c0, c1)
+        return new
 
     @property
     def shape(self) -> Tuple[int, int]:
@@ -278,6 +374,77 @@ def _escape_start(costmap: Costmap, start: Tuple[int, int]) -> None:
         costmap.weight[r0:r1, c0:c1][soft] = 1.0 + costmap.params.inflation_weight
 
 
+class _Window:
+    """The part [r0:r1, c0:c1] of a costmap's step costs (what ``cost_to_goal`` and
+    ``descend`` read), as views."""
+
+    def __init__(self, costmap: Costmap, r0: int, r1: int, c0: int, c1: int):
+        self.lethal = costmap.lethal[r0:r1, c0:c1]
+        self.weight = costmap.weight[r0:r1, c0:c1]
+
+
+def _octile(r: np.ndarray, c: np.ndarray, cell: Tuple[int, int]) -> np.ndarray:
+    """Least integer cost of a walk between cells (r, c) and ``cell`` (step costs are at
+    least UNIT straight and DIAG diagonally)."""
+    dr, dc = np.abs(r - cell[0]), np.abs(c - cell[1])
+    lo = np.minimum(dr, dc)
+    return DIAG * lo + UNIT * (np.maximum(dr, dc) - lo)
+
+
+def _exit_bound(costmap: Costmap, start: Tuple[int, int], goal: Tuple[int, int],
+                r0: int, r1: int, c0: int, c1: int) -> float:
+    """A lower bound of the cost of every start -> goal walk that leaves [r0:r1, c0:c1]:
+    it enters a non-lethal cell of the ring just outside the window (inf if none)."""
+    rows, cols = costmap.shape
+    ra, rb, ca, cb = max(r0 - 1, 0), min(r1 + 1, rows), max(c0 - 1, 0), min(c1 + 1, cols)
+    ring_r, ring_c = [], []
+    for edge, r, c in ((r0 > 0, r0 - 1, np.arange(ca, cb)),
+                       (r1 < rows, r1, np.arange(ca, cb)),
+                       (c0 > 0, np.arange(ra, rb), c0 - 1),
+                       (c1 < cols, np.arange(ra, rb), c1)):
+        if edge:
+            r, c = np.broadcast_arrays(r, c)
+            ring_r.append(r)
+            ring_c.append(c)
+    if not ring_r:
+        return float("inf")
+    r, c = np.concatenate(ring_r), np.concatenate(ring_c)
+    ok = ~costmap.lethal[r, c]
+    if not ok.any():
+        return float("inf")
+    r, c = r[ok], c[ok]
+    return float(np.min(_octile(r, c, start) + _octile(r, c, goal)))
+
+
+def windowed_cost_to_goal(costmap: Costmap, start: Tuple[int, int], goal: Tuple[int, int],
+                          max_rounds: int = 400, margin: int = WINDOW_MARGIN):
+    """``cost_to_goal`` in a window round start and goal, grown until it is exact.
+
+    The window is the box of start and goal grown by ``margin`` cells (at least half their
+    distance); the start's cost-to-goal found inside it is the true one, and so is the
+    path ``descend`` reads off, when it is lower than ``_exit_bound`` (every walk that
+    leaves the window costs at least that): no cell the descent compares can then be
+    reached more cheaply from outside. Else the margin is doubled, up to the whole grid.
+    Returns (cost-to-goal of the window, its window, (r0, c0), rounds in all)."""
+    rows, cols = costmap.shape
+    margin = max(int(margin), max(abs(start[0] - goal[0]), abs(start[1] - goal[1])) // 2)
+    total = 0
+    while True:
+        r0, r1 = max(min(start[0], goal[0]) - margin, 0), \
+            min(max(start[0], goal[0]) + margin + 1, rows)
+        c0, c1 = max(min(start[1], goal[1]) - margin, 0), \
+            min(max(start[1], goal[1]) + margin + 1, cols)
+        window = _Window(costmap, r0, r1, c0, c1)
+        dist, rounds = cost_to_goal(window, (goal[0] - r0, goal[1] - c0), max_rounds)
+        total += rounds
+        whole = (r0, r1, c0, c1) == (0, rows, 0, cols)
+        cost = dist[start[0] - r0, start[1] - c0]
+        if whole or (cost < LETHAL
+                     and cost < _exit_bound(costmap, start, goal, r0, r1, c0, c1)):
+            return dist, window, (r0, c0), total
+        margin *= 2
+
+
 def plan(costmap: Costmap, start_xy: Sequence[float], goal_xy: Sequence[float]) -> PlanResult:
     """A path from ``start_xy`` to ``goal_xy`` [m], or the reason there is none."""
     start = costmap.to_cell(start_xy)
@@ -298,14 +465,17 @@ def plan(costmap: Costmap, start_xy: Sequence[float], goal_xy: Sequence[float]) 
                               failure=INVALID_GOAL)
         goal, goal_exact = moved, False
     if costmap.lethal[start]:
+        costmap = copy.copy(costmap)  # a cached costmap stays as it is
         _escape_start(costmap, start)
-    dist, rounds = cost_to_goal(costmap, goal, costmap.params.max_rounds)
-    if dist[start] >= LETHAL:
+    dist, window, (r0, c0), rounds = windowed_cost_to_goal(costmap, start, goal,
+                                                           costmap.params.max_rounds)
+    start_w, goal_w = (start[0] - r0, start[1] - c0), (goal[0] - r0, goal[1] - c0)
+    if dist[start_w] >= LETHAL:
         return PlanResult(False, reason="no path from (%.2f, %.2f) to goal (%.2f, %.2f): the "
                           "goal is not reachable" % (start_xy[0], start_xy[1], goal_xy[0],
                                                      goal_xy[1]), rounds=rounds,
                           failure=UNREACHABLE)
-    cells = descend(dist, costmap, start, goal)
+    cells = descend(dist, window, start_w, goal_w) + (r0, c0)
     if tuple(cells[-1]) != tuple(goal):
         return PlanResult(False, reason="path extraction stalled", rounds=rounds,
                           failure=UNREACHABLE)
@@ -313,7 +483,7 @@ def plan(costmap: Costmap, start_xy: Sequence[float], goal_xy: Sequence[float]) 
     pts[0] = start_xy[:2]
     if goal_exact:
         pts[-1] = goal_xy[:2]
-    return PlanResult(True, pts, float(dist[start]) / UNIT * costmap.resolution, "", rounds)
+    return PlanResult(True, pts, float(dist[start_w]) / UNIT * costmap.resolution, "", rounds)
 
 
 def path_length(path: np.ndarray) -> float:

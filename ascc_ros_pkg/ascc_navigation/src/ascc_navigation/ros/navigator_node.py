@@ -28,6 +28,7 @@ import tf2_ros
 from geometry_msgs.msg import PoseStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import OccupancyGrid, Path
+from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
 
 from ascc_common.grid import map_from_msg
@@ -87,7 +88,9 @@ class NavigatorNode:
         self.goal_pub = rospy.Publisher("~current_goal", PoseStamped, queue_size=1, latch=True)
         self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal,
                                                queue_size=1)
-        rospy.Subscriber("map", OccupancyGrid, self.on_map, queue_size=1)
+        # numpy_msg: the grid arrives as an int8 array, not a tuple of a million ints
+        rospy.Subscriber("map", numpy_msg(OccupancyGrid), self.on_map, queue_size=1,
+                         buff_size=2 ** 24)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
         rospy.Subscriber("move_base_simple/goal", PoseStamped, self.on_simple_goal,
                          queue_size=1)
