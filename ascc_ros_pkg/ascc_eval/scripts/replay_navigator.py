@@ -11,7 +11,8 @@ thread), so all the navigator's work is on one thread and counted.
 
 The robot in the bag drove by the recorded commands, not by these: the replay measures the
 work the navigator does for the inputs it had, which is what its CPU share is made of.
-Prints the process CPU time split into map handling (deserialisation, grid conversion,
+Prints the number of plans and a digest of their paths (two versions of the navigator that
+plan alike give the same digest), the process CPU time split into map handling (deserialisation, grid conversion,
 ``set_map``) and control steps (with re-plans), per minute of the run, and the whole run's
 share of one core at real time; ``--profile N`` prints cProfile's N heaviest functions.
 
@@ -19,6 +20,7 @@ share of one core at real time; ``--profile N`` prints cProfile's N heaviest fun
 """
 import argparse
 import cProfile
+import hashlib
 import os
 import pstats
 import sys
@@ -109,6 +111,7 @@ def replay(events, mount, params, numpy_maps):
     map_odom = odom_base = scan = None
     minutes = {}
     plans = maps = 0
+    digest = hashlib.sha1()  # of every plan made: equal digests, equal plans
     next_step = None
     for t, kind, data in events:
         while next_step is not None and next_step <= t:
@@ -119,7 +122,9 @@ def replay(events, mount, params, numpy_maps):
                 step = navigator.step(next_step, pose, pts, period)
                 minutes.setdefault(int(next_step // 60), [0.0, 0.0])[1] += \
                     time.process_time() - c0
-                plans += step.new_path is not None
+                if step.new_path is not None:
+                    plans += 1
+                    digest.update(np.ascontiguousarray(step.new_path, dtype=float).tobytes())
             next_step += period
         if kind == "map":
             c0 = time.process_time()
@@ -137,7 +142,7 @@ def replay(events, mount, params, numpy_maps):
             map_odom = data
         elif kind == "base_link":
             odom_base = data
-    return minutes, plans, maps
+    return minutes, plans, maps, digest.hexdigest()
 
 
 def main():
@@ -155,14 +160,14 @@ def main():
     prof = cProfile.Profile() if args.profile else None
     if prof:
         prof.enable()
-    minutes, plans, maps = replay(events, mount, params, not args.list_maps)
+    minutes, plans, maps, digest = replay(events, mount, params, not args.list_maps)
     if prof:
         prof.disable()
     total_map = sum(v[0] for v in minutes.values())
     total_step = sum(v[1] for v in minutes.values())
     span = events[-1][0] - events[0][0]
-    print("%s: %.0f s replayed, %d map updates, %d plans" % (os.path.basename(args.bag),
-                                                               span, maps, plans))
+    print("%s: %.0f s replayed, %d map updates, %d plans (sha1 of the paths %s)"
+          % (os.path.basename(args.bag), span, maps, plans, digest[:12]))
     print("%6s %12s %12s %10s" % ("minute", "map_cpu_s", "step_cpu_s", "core_%"))
     for m in sorted(minutes):
         a, b = minutes[m]

@@ -7,6 +7,7 @@ from ascc_common.grid import OCCUPIED
 from ascc_common.params import from_params, tree_getter
 from ascc_navigation import controller as ctl
 from ascc_navigation import navigation as nav
+from ascc_navigation import planner as pln
 from ascc_navigation import synthetic as syn
 
 DT = 0.1
@@ -99,6 +100,29 @@ def test_map_update_triggers_a_replan(office):
     navigator.set_map(blocked, info)
     path = navigator.step(0.2, (2.0, 2.0, 0.0), None, DT).new_path
     assert path is not None and path[:, 1].max() > 5.5  # now around the north side
+
+
+def test_replans_on_updated_maps_equal_plans_on_fresh_costmaps(office):
+    """The navigator keeps one costmap and updates it incrementally: its plans after a
+    series of map edits (walls added and removed again) are those of a fresh costmap."""
+    grid, info = office
+    navigator = nav.Navigator()
+    navigator.set_map(grid, info)
+    navigator.set_goal(12.0, 2.0, None, 0.0)
+    navigator.step(0.0, (2.0, 2.0, 0.0), None, DT)
+    t = 0.0
+    edits = [((slice(2, 60), slice(160, 164)), OCCUPIED), ((slice(2, 60), slice(160, 164)), 0),
+             ((slice(30, 34), slice(60, 200)), -1)]
+    for k, (rows, value) in enumerate(edits):
+        grid = grid.copy()
+        grid[rows] = value
+        navigator.set_map(grid, info)
+        t += 0.1
+        path = navigator.step(t, (2.0, 2.0, 0.0), None, DT).new_path
+        fresh = pln.plan(pln.Costmap(grid, info, navigator.planner_params), (2.0, 2.0),
+                         (12.0, 2.0))
+        assert path is not None and fresh.ok, k
+        assert np.array_equal(path, fresh.path), k
 
 
 def test_cancel_stops_and_idles(office):

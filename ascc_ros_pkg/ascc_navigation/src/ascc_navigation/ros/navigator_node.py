@@ -88,10 +88,11 @@ class NavigatorNode:
         self.goal_pub = rospy.Publisher("~current_goal", PoseStamped, queue_size=1, latch=True)
         self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal,
                                                queue_size=1)
-        # numpy_msg: the grid arrives as an int8 array, not a tuple of a million ints
+        # numpy_msg: the grid (the ranges) arrive as an array, not a tuple of a million
+        # (hundreds of) Python numbers
         rospy.Subscriber("map", numpy_msg(OccupancyGrid), self.on_map, queue_size=1,
                          buff_size=2 ** 24)
-        rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
+        rospy.Subscriber("scan", numpy_msg(LaserScan), self.on_scan, queue_size=1)
         rospy.Subscriber("move_base_simple/goal", PoseStamped, self.on_simple_goal,
                          queue_size=1)
         self.server = GoalServer("move_base", MoveBaseAction, auto_start=False)
