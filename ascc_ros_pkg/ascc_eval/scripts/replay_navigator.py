@@ -12,9 +12,10 @@ thread), so all the navigator's work is on one thread and counted.
 The robot in the bag drove by the recorded commands, not by these: the replay measures the
 work the navigator does for the inputs it had, which is what its CPU share is made of.
 Prints the number of plans and a digest of their paths (two versions of the navigator that
-plan alike give the same digest), the process CPU time split into map handling (deserialisation, grid conversion,
-``set_map``) and control steps (with re-plans), per minute of the run, and the whole run's
-share of one core at real time; ``--profile N`` prints cProfile's N heaviest functions.
+plan alike give the same digest), the process CPU time split into map handling
+(deserialisation, grid conversion, ``set_map``) and control steps (with re-plans), per
+minute of the run, and the whole run's share of one core at real time; ``--profile N``
+prints cProfile's N heaviest functions.
 
     python3 ascc_eval/scripts/replay_navigator.py RUN.bag [--until-s 600] [--profile 25]
 """
