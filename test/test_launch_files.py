@@ -43,6 +43,10 @@ VARIANTS = {
     "ascc_ros_pkg/asccbot_bringup/launch/description.launch": [
         {"layout": "webcam", "robot_model": "create_2", "telepresence": "true",
          "layer_heights_m": "[0.1,0.2,0.3,0.6]", "frame_prefix": "robotA/"}],
+    "ascc_ros_pkg/asccbot_bringup/launch/descriptions.launch": [
+        {"robots": "robotA robotB robotC", "layout": "webcam", "robot_model": "create_2"}],
+    "launch/sim/three_robots.launch": [{"description": "true"}, {"rviz": "true"}],
+    "launch/sim/colloc.launch": [{"description": "true", "setup": "distributed"}],
 }
 
 
@@ -120,3 +124,22 @@ def test_bring_up_starts_the_robot_and_checks_the_real_navigation():
     assert len(check) == 1 and check[0].required
     assert "use_stand_ins:=true" in check[0].args and "gmapping move_base" in check[0].args
     assert problems  # gmapping and move_base are not on Debian 12: the real ones are named
+
+
+@pytest.mark.parametrize("rel", ["launch/sim/three_robots.launch", "launch/sim/colloc.launch"])
+def test_three_robots_each_have_their_description(rel):
+    """description:=true: robotA/B/C each with robot_description (every link prefixed by
+    its namespace, as docs/DESIGN.md wants frames) and a robot_state_publisher."""
+    config, problems = _check(rel, {"description": "true"})
+    assert problems == []
+    publishers = {n.namespace + n.name for n in config.nodes
+                  if n.package == "robot_state_publisher"}
+    for robot in ("robotA", "robotB", "robotC"):
+        assert "/%s/robot_state_publisher" % robot in publishers
+        urdf = ET.fromstring(config.params["/%s/robot_description" % robot].value)
+        links = [e.get("name") for e in urdf.iter("link")]
+        assert "%s/camera" % robot in links and "%s/laser" % robot in links
+        assert [n for n in links if not n.startswith(robot + "/")] == []
+    assert "/robot_description" not in config.params
+    config, _ = _check(rel, {})  # without rviz, no description unless asked for
+    assert not any(n.package == "robot_state_publisher" for n in config.nodes)
