@@ -3,7 +3,7 @@
 SHELL := /bin/bash
 ARGS ?=
 
-.PHONY: setup demo test lint unit rostest bench clean
+.PHONY: setup demo test lint unit rostest bench screenshots clean
 
 setup:
 	@bash scripts/setup.sh
@@ -19,6 +19,12 @@ lint: setup
 
 bench: setup
 	@bash scripts/run_benchmarks.sh
+
+# every rviz config against its launch file (rviz/launches.yaml), headless, into
+# docs/images/; ARGS='sim.rviz robot.rviz' renders only those
+screenshots:
+	@bash scripts/setup.sh --screenshots
+	@source env.sh && python scripts/rviz_screenshots.py $(ARGS)
 
 clean:
 	rm -rf .ws output

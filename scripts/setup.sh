@@ -5,6 +5,8 @@
 #      pip requirements (so rospy & co. from Debian stay importable),
 #   3. the catkin workspace, built out of tree in .ws/ (git-ignored).
 # Safe to rerun: each step is skipped when already done (delete .ws/ to force a rebuild).
+#   scripts/setup.sh [--screenshots]   --screenshots: also Xvfb and ImageMagick, for
+#                                      scripts/rviz_screenshots.py (make screenshots)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -23,6 +25,8 @@ APT_PACKAGES=(
   liburdfdom-tools rviz python3-pyqt5
   python3-tornado python3-selenium chromium chromium-driver
 )
+# rviz headless: a virtual X server and ImageMagick's `import` (scripts/rviz_screenshot.sh)
+[ "${1:-}" = "--screenshots" ] && APT_PACKAGES+=(xvfb imagemagick)
 
 log() { printf '[setup] %s\n' "$*"; }
 
