@@ -88,6 +88,11 @@ def test_markers_show_every_phase_and_the_goal():
     none = plan(np.full((10, 10), OCCUPIED, np.int8), info, (0.2, 0.2))
     arr = plan_markers(none, "map", None, None)
     assert all(m.action == Marker.DELETE for m in arr.markers if m.ns == "goal")
+    # nothing to show (no frontier, no blacklist): no list marker without points, which
+    # rviz shows as an error of the whole display
+    assert [m.ns for m in arr.markers if m.action == Marker.ADD and not m.points
+            and m.type in (Marker.POINTS, Marker.SPHERE_LIST, Marker.CUBE_LIST)] == []
+    assert arr.markers[0].action == Marker.DELETEALL
 
 
 def test_goal_faces_its_frontier():

@@ -73,6 +73,10 @@ def _points(xy: np.ndarray, z: float, max_points: int) -> list:
     return [Point(float(x), float(y), z) for x, y in xy]
 
 
+_LIST_TYPES = (Marker.LINE_STRIP, Marker.LINE_LIST, Marker.CUBE_LIST, Marker.SPHERE_LIST,
+               Marker.POINTS, Marker.TRIANGLE_LIST)
+
+
 def plan_markers(result: Plan, frame_id: str, stamp, robot_xy: Optional[Tuple[float, float]],
                  blacklist_xy: Sequence[Tuple[float, float]] = (), max_points: int = 5000
                  ) -> MarkerArray:
@@ -121,4 +125,8 @@ def plan_markers(result: Plan, frame_id: str, stamp, robot_xy: Optional[Tuple[fl
     b = _marker(frame_id, stamp, "blacklist", Marker.CUBE_LIST, 0.25, (0.9, 0.0, 0.0, 0.8))
     b.points = [Point(float(x), float(y), 0.05) for x, y in blacklist_xy]
     out.markers.append(b)
+    # rviz marks the whole display as an error on a list marker without points ("Points
+    # should not be empty"): an empty list is left out (DELETEALL above cleared the old one)
+    out.markers = [m for m in out.markers if m.action != Marker.ADD
+                   or m.type not in _LIST_TYPES or m.points]
     return out
