@@ -25,9 +25,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def load_specs():
-    """rviz/launches.yaml: config name -> launch, args, image, wait_s."""
+    """rviz/launches.yaml: entry name -> launch, args, image, wait_s and config (the rviz
+    file in rviz/; the entry's name when not given)."""
     with open(os.path.join(ROOT, "rviz", "launches.yaml")) as f:
-        return yaml.safe_load(f)
+        specs = yaml.safe_load(f)
+    for name, spec in specs.items():
+        spec.setdefault("config", name)
+    return specs
 
 
 def free_port():
@@ -52,8 +56,9 @@ def isolated_env():
 def shoot(name, spec, out_dir):
     env = isolated_env()
     args = [a.replace("FREE", str(free_port())) for a in spec["args"]]
-    print("rviz_screenshots: %s <- %s %s (%s)" % (name, spec["launch"], " ".join(args),
-                                                  env["ROS_MASTER_URI"]), flush=True)
+    print("rviz_screenshots: %s (%s) <- %s %s (%s)" % (
+        name, spec["config"], spec["launch"], " ".join(args), env["ROS_MASTER_URI"]),
+        flush=True)
     run = subprocess.Popen(["bash", "-c", "source env.sh; exec roslaunch %s %s"
                             % (spec["launch"], " ".join(args))], cwd=ROOT, env=env,
                            stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
@@ -67,7 +72,7 @@ def shoot(name, spec, out_dir):
             except OSError:
                 time.sleep(1)
         rc = subprocess.call(["bash", os.path.join(ROOT, "scripts", "rviz_screenshot.sh"),
-                              os.path.join(ROOT, "rviz", name),
+                              os.path.join(ROOT, "rviz", spec["config"]),
                               os.path.join(out_dir, spec["image"]), str(spec["wait_s"])],
                              cwd=ROOT, env=env)
     finally:
@@ -83,7 +88,8 @@ def shoot(name, spec, out_dir):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out-dir", default=os.path.join(ROOT, "docs", "images"))
-    ap.add_argument("configs", nargs="*", help="config names (default: all)")
+    ap.add_argument("configs", nargs="*",
+                    help="entries of rviz/launches.yaml, e.g. sim.rviz (default: all)")
     a = ap.parse_args()
     specs = load_specs()
     names = [os.path.basename(c) for c in a.configs] or sorted(specs)

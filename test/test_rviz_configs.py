@@ -26,8 +26,9 @@ _spec = importlib.util.spec_from_file_location(
     "rviz_screenshots", os.path.join(ROOT, "scripts", "rviz_screenshots.py"))
 shots = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(shots)
-# config -> the launch file that shows it and its arguments
-CONFIGS = {"rviz/" + name: (spec["launch"], spec["args"])
+# entry of rviz/launches.yaml -> (config, the launch file that shows it, its arguments);
+# a config may have several entries (exploration.rviz: the demo and the robot's bring-up)
+CONFIGS = {name: ("rviz/" + spec["config"], spec["launch"], spec["args"])
            for name, spec in shots.load_specs().items()}
 # display class -> (topic key, accepted message types); None: no topic
 DISPLAY_TYPES = {
@@ -71,10 +72,11 @@ def _config(path):
 
 
 def test_every_config_is_checked_and_its_plugins_exist():
-    assert sorted(CONFIGS) == sorted("rviz/" + f for f in os.listdir(os.path.join(ROOT, "rviz"))
-                                     if f.endswith(".rviz"))
+    paths = sorted({path for path, _, _ in CONFIGS.values()})
+    assert paths == sorted("rviz/" + f for f in os.listdir(os.path.join(ROOT, "rviz"))
+                           if f.endswith(".rviz"))
     classes = {c.get("name") for c in ET.parse(RVIZ_PLUGINS).getroot().iter("class")}
-    for path in CONFIGS:
+    for path in paths:
         _, displays = _config(path)
         for d in displays:
             assert d["Class"] in classes, (path, d["Class"])
@@ -95,10 +97,10 @@ def _wait_for_topics(master, wanted, deadline):
     return types or {}
 
 
-@pytest.mark.parametrize("path", sorted(CONFIGS))
-def test_config_against_its_launch(path):
+@pytest.mark.parametrize("entry", sorted(CONFIGS))
+def test_config_against_its_launch(entry):
+    path, launch, args = CONFIGS[entry]
     manager, displays = _config(path)
-    launch, args = CONFIGS[path]
     env = shots.isolated_env()
     wanted = {}
     for d in displays:
