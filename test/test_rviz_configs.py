@@ -1,7 +1,8 @@
 """Every rviz config against the launch file that shows it: each display's plugin exists
 (rviz's plugin description), each enabled display's topic is published with a type that
-display takes, its robot description parameter is set, and the fixed frame and every
-frame the TF display expects are in TF. rviz itself is not started (no display needed):
+display takes, its robot description parameter is set, the fixed frame and every frame
+the TF display expects are in TF, and the markers of its marker displays are drawable
+(``ascc_testing.markers``) over MARKER_WATCH_S. rviz itself is not started (no display needed):
 these are the errors rviz would show in its Displays panel (a missing topic or type,
 "Fixed Frame [map] does not exist", a plugin that is not found).
 
@@ -57,6 +58,20 @@ while time.time() < deadline:
     time.sleep(1)
 print(" ".join(sorted(names)))
 """
+
+MARKERS_SNIPPET = """
+import sys, time, rospy
+from visualization_msgs.msg import MarkerArray
+from ascc_testing.markers import marker_array_errors
+rospy.init_node("rviz_marker_check", anonymous=True)
+errors = set()
+for topic in sys.argv[2:]:
+    rospy.Subscriber(topic, MarkerArray, lambda m, t=topic: errors.update(
+        "%s: %s" % (t, e) for e in marker_array_errors(m)), queue_size=20)
+time.sleep(float(sys.argv[1]))
+print("\\n".join(sorted(errors)))
+"""
+MARKER_WATCH_S = 20.0  # wall time over which the marker topics are checked
 
 
 def _displays(items):
@@ -130,6 +145,13 @@ def test_config_against_its_launch(entry):
                                env=env, capture_output=True, text=True,
                                timeout=150).stdout.split()
         problems += ["frame %s not in TF" % f for f in want_frames if f not in names]
+        marker_topics = ["/" + d["Marker Topic"].lstrip("/") for d in displays
+                         if d["Class"] == "rviz/MarkerArray" and d.get("Enabled", True)]
+        if marker_topics:  # what would turn a marker display red
+            out = subprocess.run(["python3", "-c", MARKERS_SNIPPET, str(MARKER_WATCH_S)]
+                                 + marker_topics, cwd=ROOT, env=env, capture_output=True,
+                                 text=True, timeout=MARKER_WATCH_S + 60).stdout
+            problems += [line for line in out.splitlines() if line.strip()]
         for d in displays:  # after TF: the launch has set its parameters
             if d["Class"] == "rviz/RobotModel" and d.get("Enabled", True):
                 code, _, urdf = master.getParam("/rviz_config_check",
