@@ -29,6 +29,8 @@ import subprocess
 import sys
 import time
 
+from ascc_eval.launching import loopback_env
+
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
                                     "..", "..", ".."))
 # Robot-side nodes: what the budget covers (not the simulator, not the measuring).
@@ -152,7 +154,7 @@ def main() -> int:
     run_dir = os.path.join(args.out, "%s_%s_seed%d" % (args.world, args.strategy, args.seed))
     os.makedirs(run_dir, exist_ok=True)
     port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
+    env = loopback_env(port)
     cmd = ["roslaunch", "-p", str(port), os.path.join(ROOT, "launch", "explore_demo.launch"),
            "world:=%s" % args.world, "strategy:=%s" % args.strategy, "seed:=%d" % args.seed,
            "real_time_factor:=%s" % args.rtf, "output_dir:=%s" % run_dir,

@@ -116,7 +116,9 @@ def run_child(world: str, robots: str, sim_seconds: float, port: int) -> dict:
     and does not have to take the /clock messages."""
     import rosgraph
 
-    os.environ["ROS_MASTER_URI"] = "http://localhost:%d" % port
+    os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
+    if not os.environ.get("ROS_IP") and not os.environ.get("ROS_HOSTNAME"):
+        os.environ["ROS_IP"] = "127.0.0.1"  # master and nodes on loopback only
     stats_file = tempfile.mktemp(prefix="ascc_sim_bench_", suffix=".json")
     procs = [subprocess.Popen(["roscore", "-p", str(port)], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)]
