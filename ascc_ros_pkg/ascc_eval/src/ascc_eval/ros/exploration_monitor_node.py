@@ -22,6 +22,7 @@ All the measuring is ascc_eval.report.ExplorationRecord; this file only wires it
 
 import json
 import threading
+import time
 
 import rospy
 import tf2_ros
@@ -36,6 +37,11 @@ from ascc_common.pose2d import transform_points, yaw_of
 from ascc_eval.report import ExplorationRecord, LaserGeometry, MonitorParams, compose
 from frontier_detector.rosmsg import grid_from_msg
 from irobot_create_2_1.msg import SensorPacket
+
+# [s, wall] after the summary is published and before the node shuts itself down: rospy
+# sends on its own threads, and a shutdown right after publish() dropped the message for
+# connected subscribers (seen in explorer_fake_move_base.test under load)
+SUMMARY_FLUSH_S = 1.0
 
 
 class Monitor:
@@ -219,9 +225,13 @@ class Monitor:
                 s = self.record.write(self.out_dir, extra, self.file_stem or None)
             else:
                 s = dict(self.record.summary(), **extra)
-            if not rospy.is_shutdown():
+            published = not rospy.is_shutdown()
+            if published:
                 self.sum_pub.publish(String(json.dumps(s)))
             rospy.loginfo("exploration_monitor: %s" % json.dumps(s))
+            if (published and self.shutdown_when_finished and reason != "shutdown"
+                    and self.sum_pub.get_num_connections() > 0):
+                time.sleep(SUMMARY_FLUSH_S)  # let the summary reach its subscribers
         if self.shutdown_when_finished and reason != "shutdown":
             rospy.signal_shutdown("exploration finished: %s" % reason)
 
