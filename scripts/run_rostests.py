@@ -122,6 +122,17 @@ def judge(cases, rc, killed_after_s):
     return passed, failed, skipped, reasons
 
 
+def rostest_env(results_dir, environ=None):
+    """The environment of one rostest: its logs in ``results_dir/log``, and its master and
+    nodes on loopback (``ROS_IP=127.0.0.1``, as scripts/ros_isolation.sh) unless the
+    user set ROS_IP or ROS_HOSTNAME: a test run is no ROS graph for the lab's network."""
+    env = dict(os.environ if environ is None else environ,
+               ROS_LOG_DIR=os.path.join(results_dir, "log"))
+    if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):
+        env["ROS_IP"] = "127.0.0.1"
+    return env
+
+
 class Run:
     """One .test file's rostest process (own session, so a timeout kills its nodes);
     ``output``: a file for its output, or None for the runner's own stdout."""
@@ -130,7 +141,7 @@ class Run:
         self.index, self.test_file, self.results_dir = index, test_file, results_dir
         self.lane = lane or lane_of(test_file)
         self.output = output
-        env = dict(os.environ, ROS_LOG_DIR=os.path.join(results_dir, "log"))
+        env = rostest_env(results_dir)
         cmd = ["rostest", "--results-base-dir", results_dir, test_file]
         self.start = time.monotonic()
         self.deadline = self.start + timeout_s

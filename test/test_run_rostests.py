@@ -183,3 +183,12 @@ def test_a_hung_rostest_is_killed(probe, tmp_path):
     assert rc == 1, out
     assert "killed after" in out
     assert counts["files_failed"] == 1 and counts["cases_failed"] >= 1
+
+
+def test_rostests_run_on_loopback_unless_told_otherwise(tmp_path):
+    runner = _runner_module()
+    env = runner.rostest_env(str(tmp_path), {"PATH": "/bin"})
+    assert env["ROS_IP"] == "127.0.0.1"
+    assert env["ROS_LOG_DIR"] == str(tmp_path / "log")
+    assert runner.rostest_env("r", {"ROS_IP": "10.1.2.3"})["ROS_IP"] == "10.1.2.3"
+    assert "ROS_IP" not in runner.rostest_env("r", {"ROS_HOSTNAME": "robot"})
