@@ -36,7 +36,13 @@ import numpy as np
 import yaml
 
 from ascc_sim.world import load_world
-from colloc_fusion.bench import ROBOTS, Placement, random_placement, replay_errors
+from colloc_fusion.bench import (
+    ROBOTS,
+    Placement,
+    error_split,
+    random_placement,
+    replay_errors,
+)
 from colloc_fusion.estimate import TargetEstimate
 from colloc_fusion.fusion import METHODS
 from colloc_fusion.landmarks import calibrate, measure
@@ -71,35 +77,53 @@ def write_world(path, placement, src=WORLD):
 
 
 # -- child: one trial under ROS ------------------------------------------------------------
+def wait_for_sim_time(master, timeout_s):
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            if master.hasParam("/use_sim_time"):
+                return
+        except OSError:
+            pass
+        if time.monotonic() > deadline:
+            raise RuntimeError("no master / use_sim_time after %.0f s" % timeout_s)
+        time.sleep(0.5)
+
+
 def record(args):
     import rosgraph
     import rospy
-    from geometry_msgs.msg import PoseWithCovarianceStamped
+    from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 
     from ascc_sim.msg import SimObjectArray
 
     with open(args.placement) as f:
         p = json.load(f)
     cmd = ["roslaunch", "-p", str(args.port), LAUNCH, "world:=" + args.world,
-           "seed:=%d" % args.sim_seed, "truth_xy_m:=[%.4f, %.4f]" % tuple(p["cone"])]
+           "seed:=%d" % args.sim_seed, "truth_xy_m:=[%.4f, %.4f]" % tuple(p["cone"]),
+           "refine_pose:=%s" % ("true" if args.refine == "on" else "false")]
     cmd += ["%s_pose:=%.4f %.4f %.4f" % ((r,) + tuple(p["robots"][r])) for r in ROBOTS]
     log = open(args.output + ".launch.log", "w")
     launch = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
                               start_new_session=True)
     try:
-        master = rosgraph.Master("/bench_colloc")
-        deadline = time.monotonic() + 120.0
-        while True:
-            try:
-                if master.hasParam("/use_sim_time"):
-                    break
-            except OSError:
-                pass
-            if time.monotonic() > deadline:
-                raise RuntimeError("no master / use_sim_time after 120 s")
-            time.sleep(0.5)
+        wait_for_sim_time(rosgraph.Master("/bench_colloc"), 120.0)
         rospy.init_node("bench_colloc_recorder", disable_signals=True)
         ests, fused, truth = [], [], []
+        amcl = {r: [] for r in ROBOTS}  # [stamp, x, y, yaw] of each amcl_pose
+        true_pose = {}  # robot -> [x, y, yaw], newest from the simulator
+
+        def yaw(q):
+            return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y ** 2 + q.z ** 2))
+
+        def on_amcl(msg, robot):
+            p = msg.pose.pose
+            amcl[robot].append([msg.header.stamp.to_sec(), p.position.x, p.position.y,
+                                yaw(p.orientation)])
+
+        def on_truth(msg, robot):
+            p = msg.pose
+            true_pose[robot] = [p.position.x, p.position.y, yaw(p.orientation)]
 
         def on_est(msg, robot):
             c = msg.pose.covariance
@@ -108,6 +132,10 @@ def record(args):
 
         subs = [rospy.Subscriber(r + "/target_estimate", PoseWithCovarianceStamped, on_est,
                                  callback_args=r, queue_size=50) for r in ROBOTS]
+        subs += [rospy.Subscriber(r + "/amcl_pose", PoseWithCovarianceStamped, on_amcl,
+                                  callback_args=r, queue_size=20) for r in ROBOTS]
+        subs += [rospy.Subscriber("ground_truth/%s/pose" % r, PoseStamped, on_truth,
+                                  callback_args=r, queue_size=2) for r in ROBOTS]
         subs.append(rospy.Subscriber("fused_target", PoseWithCovarianceStamped,
                                      lambda m: fused.append([m.header.stamp.to_sec(),
                                                              m.pose.pose.position.x,
@@ -125,7 +153,8 @@ def record(args):
                                    % (rospy.get_time(), end, args.timeout_s, launch.poll()))
             time.sleep(0.2)
         out = {"estimates": ests, "fused": fused, "truth": truth[0] if truth else None,
-               "settle_s": args.settle_s, "end_s": end}
+               "settle_s": args.settle_s, "end_s": end, "amcl": amcl,
+               "robot_truth": true_pose, "refine": args.refine}
         with open(args.output, "w") as f:
             json.dump(out, f)
         rospy.signal_shutdown("done")
@@ -163,6 +192,11 @@ def analyse(path, world_path):
     row["calibration"] = {"theta_rad": fit.theta, "t_m": [fit.tx, fit.ty],
                           "rms_m": fit.rms_m}
     row["node_thesis"] = float(np.mean(node)) if node else None
+    if rec.get("amcl"):
+        robots_truth = {r: fit.apply_pose(np.array(v, dtype=float))
+                        for r, v in rec["robot_truth"].items()}
+        row["split"] = error_split(ests, rec["amcl"], robots_truth, truth,
+                                   rec["settle_s"], rec["end_s"])
     row["samples"] = {k: len(v) for k, v in errs.items()}
     return row
 
@@ -180,6 +214,12 @@ def summarise(rows):
     for m in VARIANTS:
         both = [r for r in rows if r.get(m) is not None and r["best_robot"] is not None]
         summ[m]["beats_best_robot"] = sum(r[m] < r["best_robot"] for r in both)
+    splits = [v for r in rows for v in r.get("split", {}).values()]
+    if splits:  # each robot's error: its pose estimate's share and its measurement's
+        summ["split"] = {k: {"mean": float(np.mean([v[k] for v in splits])),
+                             "max": float(np.max([v[k] for v in splits]))}
+                         for k in splits[0]}
+        summ["split"]["robot_trials"] = len(splits)
     return summ
 
 
@@ -192,6 +232,8 @@ def main():
     ap.add_argument("--timeout-s", type=float, default=400.0, help="[s wall] per trial")
     ap.add_argument("--port", type=int, default=11611, help="first master port")
     ap.add_argument("--out", default="/tmp/bench_colloc")
+    ap.add_argument("--refine", choices=("on", "off"), default="on",
+                    help="amcl's refine_estimate (scan match of the pose; off: as before)")
     ap.add_argument("--reanalyse", action="store_true",
                     help="only recompute the summary from the recordings in --out")
     ap.add_argument("--record", action="store_true", help=argparse.SUPPRESS)
@@ -226,7 +268,8 @@ def main():
                               stem + "_placement.json", "--sim-seed", str(k), "--port",
                               str(port), "--output", stem + ".json", "--settle-s",
                               str(args.settle_s), "--record-s", str(args.record_s),
-                              "--timeout-s", str(args.timeout_s)], env=env)
+                              "--timeout-s", str(args.timeout_s), "--refine", args.refine],
+                             env=env)
         if res.returncode != 0 or not os.path.isfile(stem + ".json"):
             print("trial %d failed (see %s.json.launch.log)" % (k, stem), flush=True)
             rows.append({"trial": k, "failed": True})
@@ -248,11 +291,17 @@ def main():
     lines = ["| estimate | mean error [m] | max error [m] | trials | beats the best robot |",
              "|---|---|---|---|---|"]
     for k, v in summ.items():
-        if v["mean_m"] is None:
+        if k == "split" or v["mean_m"] is None:
             continue
         lines.append("| %s | %.3f | %.3f | %d | %s |" % (k, v["mean_m"], v["max_m"],
                                                         v["trials"],
                                                         v.get("beats_best_robot", "")))
+    if "split" in summ:
+        sp = summ["split"]
+        lines += ["", "Each robot's error (%d robot-trials), mean / max [m; pose_yaw rad]: "
+                  % sp["robot_trials"] + "; ".join(
+                      "%s %.4f / %.4f" % (k, sp[k]["mean"], sp[k]["max"])
+                      for k in ("total", "pose", "measurement", "pose_xy", "pose_yaw"))]
     text = "\n".join(lines)
     with open(os.path.join(args.out, "summary.md"), "w") as f:
         f.write(text + "\n")

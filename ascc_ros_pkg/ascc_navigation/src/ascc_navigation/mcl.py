@@ -14,6 +14,12 @@
 * Estimate: weighted mean and covariance of the whole cloud, yaw included (circular mean,
   wrapped deviations): the reported covariance is the particle spread, widened by the Monte
   Carlo error of the mean (1 + 1/ESS) and the map's cell size (see ``estimate``).
+* Optional refinement of the estimate (stand-in only, ``refine_estimate``): the mean is
+  scan-matched to the map with many beams (``refine_pose``: hill climbing on a robust
+  likelihood of the beams' signed distance to the nearest obstacle surface). A robot that
+  stands still gets no motion noise, so its particles cannot move: the cloud's mean stays
+  where the best initial particles happened to be (centimetres, a degree or two off).
+  The refinement is not fed back into the particles; the covariance stays the cloud's.
 
 Poses are (x [m], y [m], yaw [rad]) rows; the grid follows nav_msgs/OccupancyGrid (row-major,
 row index grows with +y of the map origin).
@@ -65,6 +71,12 @@ class MclParams:
                               gt=0.0)
     kld_bin_yaw: float = param(float(np.deg2rad(10.0)), "[rad] histogram bin used by KLD "
                                "sampling", gt=0.0)
+    refine_estimate: bool = param(False, "scan-match the published pose to the map "
+                                  "(stand-in only)")
+    refine_max_beams: int = param(360, "beams used by the refinement", ge=3)
+    refine_max_shift_m: float = param(0.3, "[m] refinement moves the estimate at most this "
+                                      "far (a match further away is not used)", gt=0.0)
+    refine_max_rot_rad: float = param(0.2, "[rad] and turns it at most this much", gt=0.0)
 
 
 @dataclass
@@ -116,8 +128,11 @@ class LikelihoodField:
             dist = np.maximum(dist - 0.5, 0.0) * info.resolution
         else:
             dist = np.full(grid.shape, np.inf, dtype=np.float32)
+        self.signed_dist = _signed_surface_distance(occupied, info.resolution, max_dist)
         dist = np.minimum(dist, max_dist)
         rand = z_rand / max(range_max, 1e-3)
+        self.sigma_hit, self.z_hit, self.rand_density = sigma_hit, z_hit, rand
+        self.max_dist = max_dist
         self.log_p = np.log(z_hit * np.exp(-dist ** 2 / (2.0 * sigma_hit ** 2)) + rand)
         self.log_p = self.log_p.astype(np.float32).ravel()
         self.log_p_outside = float(np.log(z_hit * np.exp(-max_dist ** 2 / (2 * sigma_hit ** 2))
@@ -142,6 +157,21 @@ class LikelihoodField:
         smooth below one cell, so the estimate is not quantised to the map resolution.
         Points off the map get the floor value.
         """
+        return self._bilinear(self.log_p, xy, self.log_p_outside)
+
+    def surface_log_likelihood(self, xy: np.ndarray) -> np.ndarray:
+        """log p(end point) for world points (..., 2) from their signed distance to the
+        nearest obstacle surface (negative inside obstacles), bilinear between cell centres.
+
+        Unlike ``log_likelihood`` (zero distance everywhere inside an obstacle), it peaks on
+        the surface itself, so a scan match is not pulled into the walls. Off the map: the
+        floor value. Used by ``refine_pose``.
+        """
+        d = self._bilinear(self.signed_dist, xy, self.max_dist)
+        return np.log(self.z_hit * np.exp(-d ** 2 / (2.0 * self.sigma_hit ** 2))
+                      + self.rand_density)
+
+    def _bilinear(self, table: np.ndarray, xy: np.ndarray, outside: float) -> np.ndarray:
         info = self.info
         gc = (xy[..., 0] - info.origin_x) / info.resolution - 0.5  # cell centres at integers
         gr = (xy[..., 1] - info.origin_y) / info.resolution - 0.5
@@ -153,10 +183,79 @@ class LikelihoodField:
         rows, cols = self.shape
         inside = (r0 >= 0) & (r0 < rows - 1) & (c0 >= 0) & (c0 < cols - 1)
         flat = np.where(inside, r0 * cols + c0, 0)
-        lp = self.log_p
-        val = ((1 - fr) * ((1 - fc) * lp[flat] + fc * lp[flat + 1])
-               + fr * ((1 - fc) * lp[flat + cols] + fc * lp[flat + cols + 1]))
-        return np.where(inside, val, self.log_p_outside)
+        val = ((1 - fr) * ((1 - fc) * table[flat] + fc * table[flat + 1])
+               + fr * ((1 - fc) * table[flat + cols] + fc * table[flat + cols + 1]))
+        return np.where(inside, val, outside)
+
+
+def _signed_surface_distance(occupied: np.ndarray, resolution: float,
+                             max_dist: float) -> np.ndarray:
+    """Signed distance [m] of each cell centre to the nearest cell edge between free and
+    occupied space: + outside obstacles, - inside; clipped to +-max_dist; flattened.
+    Interpolated bilinearly it crosses zero on a straight wall's surface."""
+    if not occupied.any() or occupied.all():
+        sign = -1.0 if occupied.any() else 1.0
+        return np.full(occupied.size, sign * max_dist, dtype=np.float32)
+    out = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2,
+                                cv2.DIST_MASK_PRECISE)
+    inside = cv2.distanceTransform(occupied.astype(np.uint8), cv2.DIST_L2,
+                                   cv2.DIST_MASK_PRECISE)
+    sd = np.where(occupied, -(inside - 0.5), out - 0.5) * resolution
+    return np.clip(sd, -max_dist, max_dist).astype(np.float32).ravel()
+
+
+def _pose_points(poses: np.ndarray, endpoints: np.ndarray) -> np.ndarray:
+    """World points (K, B, 2) of base-frame end points (B, 2) seen from poses (K, 3)."""
+    c, s = np.cos(poses[:, 2:3]), np.sin(poses[:, 2:3])
+    ex, ey = endpoints[None, :, 0], endpoints[None, :, 1]
+    return np.stack([poses[:, 0:1] + c * ex - s * ey, poses[:, 1:2] + s * ex + c * ey],
+                    axis=-1)
+
+
+# the 27 moves (-1, 0, +1 steps in x, y and yaw) of one hill-climbing round; (0, 0, 0) first
+_MOVES = np.array([(i, j, k) for i in (0, -1, 1) for j in (0, -1, 1) for k in (0, -1, 1)],
+                  dtype=float)
+
+
+def refine_pose(field: LikelihoodField, pose: Sequence[float], endpoints: np.ndarray,
+                max_shift_m: float = 0.3, max_rot_rad: float = 0.2, step_m: float = 0.04,
+                step_rad: float = 0.02, min_step_m: float = 0.0005,
+                max_rounds: int = 200) -> Tuple[np.ndarray, float]:
+    """Scan match: the pose near ``pose`` whose end points best fit the map.
+
+    Hill climbing on the sum over beams of ``field.surface_log_likelihood`` (robust: a beam
+    on an unmapped object costs at most the z_rand floor): each round scores the 27 poses
+    one step away in x, y and yaw at once, moves to the best, and halves the steps when no
+    move helps, down to ``min_step_m`` (the yaw step in proportion). Moves further than
+    ``max_shift_m`` / ``max_rot_rad`` from ``pose`` are not taken. Returns the pose (3,)
+    and the score gained (log-likelihood units, >= 0).
+    """
+    start = np.asarray(pose, dtype=float).copy()
+    pts = np.asarray(endpoints, dtype=float).reshape(-1, 2)
+    if len(pts) == 0:
+        return start, 0.0
+
+    def score(poses):
+        return field.surface_log_likelihood(_pose_points(poses, pts)).sum(axis=1)
+
+    best = start.copy()
+    best_score = start_score = float(score(best[None])[0])
+    steps = np.array([step_m, step_m, step_rad])
+    for _ in range(max_rounds):
+        cand = best[None, :] + _MOVES[1:] * steps
+        ok = ((np.hypot(cand[:, 0] - start[0], cand[:, 1] - start[1]) <= max_shift_m)
+              & (np.abs(wrap_angle(cand[:, 2] - start[2])) <= max_rot_rad))
+        cand = cand[ok]
+        sc = score(cand) if len(cand) else np.zeros(0)
+        if len(sc) and sc.max() > best_score:
+            i = int(np.argmax(sc))
+            best, best_score = cand[i].copy(), float(sc[i])
+        else:
+            steps = steps / 2.0
+            if steps[0] < min_step_m:
+                break
+    best[2] = float(wrap_angle(best[2]))
+    return best, best_score - start_score
 
 
 def scan_endpoints(ranges: np.ndarray, angle_min: float, angle_increment: float,
@@ -212,6 +311,7 @@ class MonteCarloLocalizer:
         self.log_w_slow = None  # augmented MCL running averages of the mean likelihood
         self.log_w_fast = None
         self.last_ess = float("inf")  # effective sample size after the last sensor update
+        self.last_refinement = None  # (shift [m], turn [rad], score gain) of refined_estimate
 
     # -- initialisation -------------------------------------------------------------
     @property
@@ -289,10 +389,7 @@ class MonteCarloLocalizer:
         """
         if len(endpoints_base) == 0:
             return float("nan")
-        c, s = np.cos(self.poses[:, 2:3]), np.sin(self.poses[:, 2:3])
-        ex, ey = endpoints_base[None, :, 0], endpoints_base[None, :, 1]
-        world = np.stack([self.poses[:, 0:1] + c * ex - s * ey,
-                          self.poses[:, 1:2] + s * ex + c * ey], axis=-1)
+        world = _pose_points(self.poses, endpoints_base)
         log_lik = self.params.laser_beam_exponent * self.field.log_likelihood(world).sum(axis=1)
         # a robot cannot stand inside an obstacle (nor off the map): without this, particles
         # inside a large solid block score best, as all their beams end in occupied cells
@@ -399,6 +496,20 @@ class MonteCarloLocalizer:
         cov[0, 0] += self.field.resolution ** 2 / 12.0
         cov[1, 1] += self.field.resolution ** 2 / 12.0
         return np.array([mx, my, myaw]), cov
+
+    def refined_estimate(self, endpoints_base: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """``estimate()``, its mean scan-matched to the map (``refine_pose``) with the
+        end points (B, 2) [m, base frame] when ``refine_estimate`` is set; the covariance
+        is the cloud's. ``last_refinement`` keeps (shift [m], turn [rad], score gain)."""
+        mean, cov = self.estimate()
+        p = self.params
+        if not p.refine_estimate or len(endpoints_base) == 0:
+            return mean, cov
+        pose, gain = refine_pose(self.field, mean, endpoints_base, p.refine_max_shift_m,
+                                 p.refine_max_rot_rad)
+        self.last_refinement = (float(np.hypot(*(pose[:2] - mean[:2]))),
+                                float(wrap_angle(pose[2] - mean[2])), gain)
+        return pose, cov
 
     def effective_sample_size(self) -> float:
         w = np.exp(self.log_w - self.log_w.max())

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -122,4 +122,52 @@ def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float
             if fused is not None:
                 errs.append(math.hypot(fused.x - truth[0], fused.y - truth[1]))
         out[name] = errs
+    return out
+
+
+def error_split(estimates: Sequence[TargetEstimate], poses: Mapping[str, Sequence],
+                robot_truth: Mapping[str, Sequence[float]], truth: Tuple[float, float],
+                t0: float, t1: float) -> Dict[str, Dict[str, float]]:
+    """Each robot's target error split into what its pose estimate and what its
+    measurement (range, bearing, range offset) contribute, averaged over its estimates
+    stamped in [t0, t1].
+
+    ``poses[robot]``: the robot's pose estimates [stamp, x, y, yaw] (amcl_pose);
+    ``robot_truth[robot]``: its true pose (x, y, yaw), in the same frame as ``truth``. An
+    estimate e made from pose estimate P with measurement m (the target in the robot's
+    frame, m = R(-yaw_P) (e - p_P)) would have been e' = p_T + R(yaw_T) m from the true
+    pose T: ``pose`` is |e - e'| (the localisation's share), ``measurement`` |e' - truth|
+    (the range and bearing's share), ``total`` |e - truth|, ``pose_xy`` / ``pose_yaw``
+    the pose estimate's own errors [m, rad] (absolute), all means. A robot without pose
+    estimates or truth is left out.
+    """
+    out: Dict[str, Dict[str, float]] = {}
+    tx, ty = truth
+    for robot, plist in poses.items():
+        if not plist or robot not in robot_truth:
+            continue
+        arr = np.array(sorted(plist), dtype=float)
+        true = np.asarray(robot_truth[robot], dtype=float)
+        acc: Dict[str, List[float]] = {"pose": [], "measurement": [], "total": [],
+                                       "pose_xy": [], "pose_yaw": []}
+        for e in estimates:
+            if e.robot != robot or not t0 <= e.stamp_s <= t1:
+                continue
+            k = int(np.searchsorted(arr[:, 0], e.stamp_s, side="right")) - 1
+            if k < 0:
+                continue
+            _, px, py, pyaw = arr[k]
+            c, s = math.cos(pyaw), math.sin(pyaw)
+            dx, dy = e.x - px, e.y - py
+            mx, my = c * dx + s * dy, -s * dx + c * dy
+            ct, st = math.cos(true[2]), math.sin(true[2])
+            ex, ey = true[0] + ct * mx - st * my, true[1] + st * mx + ct * my
+            acc["pose"].append(math.hypot(e.x - ex, e.y - ey))
+            acc["measurement"].append(math.hypot(ex - tx, ey - ty))
+            acc["total"].append(math.hypot(e.x - tx, e.y - ty))
+            acc["pose_xy"].append(math.hypot(px - true[0], py - true[1]))
+            acc["pose_yaw"].append(abs(math.atan2(math.sin(pyaw - true[2]),
+                                                  math.cos(pyaw - true[2]))))
+        if acc["total"]:
+            out[robot] = {k: float(np.mean(v)) for k, v in acc.items()}
     return out

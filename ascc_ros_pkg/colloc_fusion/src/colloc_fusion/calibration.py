@@ -42,6 +42,13 @@ class Rigid2D:
         pts = np.asarray(pts, dtype=float)
         return pts @ self.rotation.T + np.array([self.tx, self.ty])
 
+    def apply_pose(self, pose) -> np.ndarray:
+        """A pose (x, y, yaw) from the source frame to the destination frame."""
+        pose = np.asarray(pose, dtype=float)
+        x, y = self.apply(pose[:2])
+        yaw = math.atan2(math.sin(pose[2] + self.theta), math.cos(pose[2] + self.theta))
+        return np.array([x, y, yaw])
+
 
 def fit_rigid_2d(src, dst) -> Rigid2D:
     """The least-squares rigid transform taking ``src`` (n, 2) onto ``dst`` (n, 2), n >= 3."""

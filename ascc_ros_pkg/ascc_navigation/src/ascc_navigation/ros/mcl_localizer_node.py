@@ -6,8 +6,10 @@ from map_server or the simulator's ground truth remapped) and ``initialpose``
 base_link -> laser). Publishes ``amcl_pose`` (latched PoseWithCovarianceStamped, covariance
 from the particle spread), ``particlecloud`` (PoseArray) and TF map -> odom, post-dated by
 ``~transform_tolerance``. Services ``global_localization`` and ``request_nomotion_update``
-(std_srvs/Empty). Parameters: amcl's names (``ascc_navigation.mcl.MclNodeParams``,
-config/amcl.yaml, package README). Callbacks only store the newest message; a timer runs
+(std_srvs/Empty). With ``~refine_estimate`` (stand-in only) the published pose is
+scan-matched to the map after every filter update (ascc_navigation.mcl.refine_pose).
+Parameters: amcl's names (``ascc_navigation.mcl.MclNodeParams``, config/amcl.yaml,
+package README). Callbacks only store the newest message; a timer runs
 the filter (ascc_navigation.mcl).
 """
 
@@ -220,7 +222,14 @@ class MclLocalizerNode:
                                    "beams, all NaN/inf or outside [%.2f, %.2f) m)" % (
                                        scan.header.frame_id, len(scan.ranges), rmin, rmax))
         elif self.localizer.process(odom, pts):
-            mean, cov = self.localizer.estimate()
+            if self.params.refine_estimate:
+                many = mcl.scan_endpoints(scan.ranges, scan.angle_min, scan.angle_increment,
+                                          mount, rmin, rmax, self.params.refine_max_beams)
+                mean, cov = self.localizer.refined_estimate(many)
+                rospy.logdebug("amcl: refinement moved the estimate %.3f m, %.4f rad",
+                               *self.localizer.last_refinement[:2])
+            else:
+                mean, cov = self.localizer.estimate()
             self.map_to_odom = mcl.map_to_odom(mean, odom)
             self._publish_pose(stamp, mean, cov)
         self._publish_tf(stamp)
