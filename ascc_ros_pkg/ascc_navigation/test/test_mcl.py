@@ -232,3 +232,90 @@ def test_mcl_node_params_hold_the_filter_and_amcl_initial_pose_defaults():
     p = from_params(mcl.MclNodeParams, {"min_particles": 250, "initial_pose_x": 1}.get)
     assert p.filter.min_particles == 250 and p.initial_pose_x == 1.0
     assert p.initial_cov_aa == pytest.approx((np.pi / 12) ** 2) and p.seed == -1
+
+
+def test_signed_surface_distance_crosses_zero_at_the_wall():
+    grid = np.zeros((40, 40), np.int8)
+    grid[:, 20:] = OCCUPIED  # wall surface at x = 1.0 m
+    field = _field(grid, GridInfo(0.05, 40, 40), sigma=0.1)
+    xs = np.array([0.8, 0.95, 1.0, 1.05, 1.2])
+    d = field._bilinear(field.signed_dist, np.column_stack([xs, np.full_like(xs, 1.0)]), 9.0)
+    assert d == pytest.approx(1.0 - xs, abs=1e-6)  # + in free space, - inside, 0 on it
+    ll = field.surface_log_likelihood(np.column_stack([xs, np.full_like(xs, 1.0)]))
+    assert np.argmax(ll) == 2 and ll[1] == pytest.approx(ll[3], abs=1e-6)
+
+
+def test_refine_pose_recovers_an_offset_pose_with_many_beams(office):
+    """The scan match moves a pose that is 8 cm and 2 deg off back to within 1.5 cm and
+    0.3 deg, in several places of the office; a robot whose particles do not move cannot
+    do this (see colloc_fusion.still_localization)."""
+    grid, info = office
+    field = _field(grid, info, 0.1)
+    spec = syn.LaserSpec()  # all 683 beams: the refinement uses refine_max_beams of them
+    rng = np.random.default_rng(11)
+    for pose in [(2.0, 2.0, 0.3), (6.0, 6.5, -1.2), (3.0, 6.0, 2.5)]:
+        r = syn.simulate_scan(grid == OCCUPIED, info, pose, MOUNT, spec, rng)
+        pts = mcl.scan_endpoints(r, spec.angle_min, spec.angle_increment, MOUNT,
+                                 spec.range_min, spec.range_max, 360)
+        start = np.array(pose) + [0.06, -0.053, np.deg2rad(2.0)]
+        refined, gain = mcl.refine_pose(field, start, pts)
+        assert gain > 0.0
+        assert np.hypot(*(refined[:2] - pose[:2])) < 0.015, (pose, refined)
+        assert abs(wrap_angle(refined[2] - pose[2])) < np.deg2rad(0.3)
+
+
+def test_refine_pose_stays_within_its_bounds(office):
+    grid, info = office
+    field = _field(grid, info, 0.1)
+    spec = syn.LaserSpec()
+    pose = (2.0, 2.0, 0.3)
+    r = syn.simulate_scan(grid == OCCUPIED, info, pose, MOUNT, spec, np.random.default_rng(2))
+    pts = mcl.scan_endpoints(r, spec.angle_min, spec.angle_increment, MOUNT, spec.range_min,
+                             spec.range_max, 360)
+    start = np.array([2.5, 2.0, 0.3])
+    refined, _ = mcl.refine_pose(field, start, pts, max_shift_m=0.1, max_rot_rad=0.05)
+    assert np.hypot(*(refined[:2] - start[:2])) <= 0.1 + 1e-9
+    assert abs(refined[2] - start[2]) <= 0.05 + 1e-9
+    same, gain = mcl.refine_pose(field, start, np.zeros((0, 2)))
+    assert np.array_equal(same, start) and gain == 0.0
+
+
+def test_refined_estimate_only_when_enabled(office):
+    grid, info = office
+    field = _field(grid, info, 0.1)
+    spec = syn.LaserSpec()
+    pose = (2.0, 2.0, 0.3)
+    rng = np.random.default_rng(3)
+    r = syn.simulate_scan(grid == OCCUPIED, info, pose, MOUNT, spec, rng)
+    pts = mcl.scan_endpoints(r, spec.angle_min, spec.angle_increment, MOUNT, spec.range_min,
+                             spec.range_max, 360)
+    for enabled in (False, True):
+        loc = mcl.MonteCarloLocalizer(field, mcl.MclParams(refine_estimate=enabled),
+                                      np.random.default_rng(4))
+        loc.initialize_gaussian((2.08, 1.95, 0.33), np.diag([1e-4, 1e-4, 1e-5]))
+        mean, cov = loc.estimate()
+        out, out_cov = loc.refined_estimate(pts)
+        assert np.array_equal(out_cov, cov)  # the covariance stays the cloud's
+        if enabled:
+            assert np.hypot(*(out[:2] - pose[:2])) < 0.015
+            assert loc.last_refinement[0] > 0.05
+        else:
+            assert np.array_equal(out, mean) and loc.last_refinement is None
+
+
+def test_selective_resampling_keeps_the_cloud_while_the_weights_are_even():
+    """amcl's selective_resampling: no resampling while the effective sample size is
+    above half the particles (here: a map without obstacles, all weights equal)."""
+    grid, info = np.zeros((40, 40), np.int8), GridInfo(0.05, 40, 40)
+    pts = np.array([[1.0, 0.0], [0.0, 1.0]])
+    for selective in (False, True):
+        params = mcl.MclParams(max_particles=2000, min_particles=100, resample_interval=1,
+                               selective_resampling=selective)
+        loc = mcl.MonteCarloLocalizer(_field(grid, info), params, np.random.default_rng(9))
+        loc.initialize_gaussian((1.0, 1.0, 0.0), np.diag([1e-4, 1e-4, 1e-4]))
+        before = loc.poses.copy()
+        assert loc.process((0.0, 0.0, 0.0), pts)
+        if selective:
+            assert np.array_equal(loc.poses, before)
+        else:  # resampled: KLD shrinks a concentrated cloud
+            assert len(loc.poses) < len(before)

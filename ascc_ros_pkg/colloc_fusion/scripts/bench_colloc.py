@@ -33,7 +33,6 @@ import sys
 import time
 
 import numpy as np
-import yaml
 
 from ascc_sim.world import load_world
 from colloc_fusion.bench import (
@@ -42,6 +41,7 @@ from colloc_fusion.bench import (
     error_split,
     random_placement,
     replay_errors,
+    write_placement_world,
 )
 from colloc_fusion.estimate import TargetEstimate
 from colloc_fusion.fusion import METHODS
@@ -64,16 +64,7 @@ def world_placement(world) -> Placement:
 
 
 def write_world(path, placement, src=WORLD):
-    with open(src) as f:
-        doc = yaml.safe_load(f)
-    doc["map"] = os.path.join(os.path.dirname(src), doc["map"])
-    for r in doc["robots"]:
-        r["pose"] = [round(v, 4) for v in placement.robots[r["name"]]]
-    for o in doc["objects"]:
-        if o["type"] == "cone":
-            o["pose"] = [round(v, 4) for v in placement.cone]
-    with open(path, "w") as f:
-        yaml.safe_dump(doc, f)
+    return write_placement_world(path, placement, src)
 
 
 # -- child: one trial under ROS ------------------------------------------------------------

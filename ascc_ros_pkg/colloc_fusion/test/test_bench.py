@@ -3,9 +3,16 @@ import math
 import os
 
 import numpy as np
+import pytest
 
 from ascc_sim.world import load_world
-from colloc_fusion.bench import ROBOTS, PlacementRules, random_placement, replay_errors
+from colloc_fusion.bench import (
+    ROBOTS,
+    PlacementRules,
+    error_split,
+    random_placement,
+    replay_errors,
+)
 from colloc_fusion.estimate import TargetEstimate
 
 WORLD = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "ascc_sim",
@@ -46,3 +53,24 @@ def test_replay_errors():
         assert len(out[method]) == 20 and max(out[method]) < 0.1
     # robotC gone after 14.5 s: A and B alone fuse to the truth
     assert math.isclose(out["thesis"][-1], 0.0, abs_tol=1e-9)
+
+
+def test_error_split_into_pose_and_measurement_shares():
+    # robot at (0, 0) facing +x, the target truly at (2, 0); amcl says (0, 0.1) and a
+    # heading of +0.05 rad, and the measurement (range 2.02 ahead) is 2 cm long
+    yaw = 0.05
+    m = np.array([2.02, 0.0])
+    e = np.array([0.0, 0.1]) + [math.cos(yaw) * m[0], math.sin(yaw) * m[0]]
+    ests = [TargetEstimate("robotA", e[0], e[1], np.eye(2) * 0.01, t) for t in (5.0, 6.0)]
+    ests.append(TargetEstimate("robotA", 9.0, 9.0, np.eye(2) * 0.01, 20.0))  # outside t1
+    split = error_split(ests, {"robotA": [[1.0, 0.0, 0.1, yaw]], "robotB": []},
+                        {"robotA": (0.0, 0.0, 0.0)}, (2.0, 0.0), 4.0, 10.0)
+    assert set(split) == {"robotA"}
+    s = split["robotA"]
+    assert s["measurement"] == pytest.approx(0.02)  # from the true pose: (2.02, 0)
+    assert s["pose"] == pytest.approx(math.hypot(e[0] - 2.02, e[1]))
+    assert s["total"] == pytest.approx(math.hypot(e[0] - 2.0, e[1]))
+    assert s["pose_xy"] == pytest.approx(0.1) and s["pose_yaw"] == pytest.approx(yaw)
+    # no pose estimate before the target's stamp: nothing to split
+    assert error_split(ests, {"robotA": [[7.0, 0.0, 0.1, yaw]]},
+                       {"robotA": (0.0, 0.0, 0.0)}, (2.0, 0.0), 4.0, 6.5) == {}

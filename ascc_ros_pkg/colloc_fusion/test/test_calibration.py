@@ -66,3 +66,9 @@ def test_no_reflection():
 def test_bad_correspondences(src, dst):
     with pytest.raises(CalibrationError):
         fit_rigid_2d(src, dst)
+
+
+def test_apply_pose_turns_the_heading_too():
+    fit = fit_rigid_2d([[0, 0], [1, 0], [0, 1]], [[1, 1], [1, 2], [0, 1]])  # +90 deg, (1, 1)
+    assert fit.apply_pose([1.0, 0.0, 3.0]) == pytest.approx([1.0, 2.0, 3.0 + np.pi / 2
+                                                             - 2 * np.pi])

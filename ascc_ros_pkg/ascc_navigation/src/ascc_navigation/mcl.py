@@ -54,6 +54,8 @@ class MclParams:
     update_min_d: float = param(0.2, "[m] translation between filter updates")
     update_min_a: float = param(np.pi / 6.0, "[rad] rotation between filter updates")
     resample_interval: int = param(2, "filter updates between resamplings")
+    selective_resampling: bool = param(False, "resample only when the effective sample "
+                                       "size is below half the particles (amcl's option)")
     recovery_alpha_slow: float = param(0.0, "random-particle injection; 0 disables it")
     recovery_alpha_fast: float = param(0.0, "random-particle injection; 0 disables it")
     laser_max_beams: int = param(30, "beams used per scan", ge=1)
@@ -467,7 +469,9 @@ class MonteCarloLocalizer:
         self.force_update = False
         self.updates_since_resample += 1
         if self.updates_since_resample >= max(self.params.resample_interval, 1):
-            self.resample()
+            if (not self.params.selective_resampling
+                    or self.last_ess < 0.5 * len(self.poses)):
+                self.resample()
             self.updates_since_resample = 0
         return True
 

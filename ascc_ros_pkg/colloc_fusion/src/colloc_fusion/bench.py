@@ -11,10 +11,12 @@ laser sees +-120 deg). All draws follow ``seed``.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
+import yaml
 
 from .estimate import TargetEstimate
 from .fuser import FusionCore
@@ -96,6 +98,22 @@ def random_placement(grid, rng: np.random.Generator, bounds: Sequence[float],
                                   robot_radius_m + 0.05) for n, p in robots.items()):
                 return Placement(cone, robots)
     raise RuntimeError("no valid placement after %d draws" % tries)
+
+
+def write_placement_world(path: str, placement: Placement, src: str) -> str:
+    """Writes to ``path`` the world YAML ``src`` with its robots and its cone moved to
+    ``placement`` (map path made absolute); returns ``path``."""
+    with open(src) as f:
+        doc = yaml.safe_load(f)
+    doc["map"] = os.path.join(os.path.dirname(os.path.abspath(src)), doc["map"])
+    for r in doc["robots"]:
+        r["pose"] = [round(v, 4) for v in placement.robots[r["name"]]]
+    for o in doc["objects"]:
+        if o["type"] == "cone":
+            o["pose"] = [round(v, 4) for v in placement.cone]
+    with open(path, "w") as f:
+        yaml.safe_dump(doc, f)
+    return path
 
 
 def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float],
