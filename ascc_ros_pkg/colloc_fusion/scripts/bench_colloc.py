@@ -16,6 +16,12 @@ trial the mean error of each; over the trials the mean and the maximum of those 
 and in how many trials each fusion beat the best single robot.
 Writes DIR/summary.json and DIR/summary.md (default DIR: /tmp/bench_colloc).
 
+``--slam-map SEED``: amcl uses a map of the office built beforehand by the SLAM stand-in
+(colloc_fusion.slam_map, mapper seed SEED, its map frame where that drive started),
+saved to DIR/slam_map.yaml and served latched on /slam_map; the desk corners measured in
+it give the truth -> map transform (residual printed), which places the robots' initial
+poses in that map and moves the truth into it.
+
 The truth is calibrated into map as in thesis 3.4.1: the desk corners are measured in
 the map the robots' amcl uses (colloc_fusion.landmarks; here the simulator's ground-truth
 grid, so the transform comes out as the identity) and the truth -> map transform fitted to
@@ -33,8 +39,12 @@ import sys
 import time
 
 import numpy as np
+import yaml
 
+from ascc_common import map_io
+from ascc_common.grid import grid_to_msg_data
 from ascc_sim.world import load_world
+from colloc_fusion import slam_map
 from colloc_fusion.bench import (
     ROBOTS,
     Placement,
@@ -43,10 +53,12 @@ from colloc_fusion.bench import (
     replay_errors,
     write_placement_world,
 )
+from colloc_fusion.calibration import Rigid2D
 from colloc_fusion.estimate import TargetEstimate
 from colloc_fusion.fusion import METHODS
 from colloc_fusion.landmarks import calibrate, measure
 
+SLAM_MAP_TOPIC = "/slam_map"  # --slam-map: where the saved map is served
 GATE_CHI2 = 13.8  # chi-square 99.9 % for 2 dof: the consistency gate's variants
 VARIANTS = dict([(m, {"method": m}) for m in METHODS]
                 + [(m + "+gate", {"method": m, "gate_chi2": GATE_CHI2}) for m in METHODS])
@@ -54,6 +66,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 WORLD = os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", "three_robots.yaml")
 LAUNCH = os.path.join(ROOT, "launch", "sim", "colloc.launch")
+GMAPPING_YAML = os.path.join(ROOT, "ascc_ros_pkg", "ascc_navigation", "config", "gmapping.yaml")
 BOUNDS = (0.3, 0.3, 8.2, 6.7)  # [m] the office's inside (three_robots map: 8.5 x 7 m)
 
 
@@ -90,16 +103,22 @@ def record(args):
 
     with open(args.placement) as f:
         p = json.load(f)
+    to_map = Rigid2D(*args.calib, np.zeros(0))  # truth -> amcl's map (identity: its grid)
     cmd = ["roslaunch", "-p", str(args.port), LAUNCH, "world:=" + args.world,
-           "seed:=%d" % args.sim_seed, "truth_xy_m:=[%.4f, %.4f]" % tuple(p["cone"]),
-           "refine_pose:=%s" % ("true" if args.refine == "on" else "false")]
-    cmd += ["%s_pose:=%.4f %.4f %.4f" % ((r,) + tuple(p["robots"][r])) for r in ROBOTS]
+           "seed:=%d" % args.sim_seed,
+           "truth_xy_m:=[%.4f, %.4f]" % tuple(to_map.apply(p["cone"])),
+           "refine_pose:=%s" % ("true" if args.refine == "on" else "false"),
+           "map_topic:=" + (SLAM_MAP_TOPIC if args.map_yaml else "/ground_truth/map")]
+    cmd += ["%s_pose:=%.4f %.4f %.4f" % ((r,) + tuple(to_map.apply_pose(p["robots"][r])))
+            for r in ROBOTS]
     log = open(args.output + ".launch.log", "w")
     launch = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
                               start_new_session=True)
     try:
         wait_for_sim_time(rosgraph.Master("/bench_colloc"), 120.0)
         rospy.init_node("bench_colloc_recorder", disable_signals=True)
+        # --slam-map: the saved map, served as map_server would (latched; kept alive)
+        map_pub = serve_map(args.map_yaml) if args.map_yaml else None  # noqa: F841
         ests, fused, truth = [], [], []
         amcl = {r: [] for r in ROBOTS}  # [stamp, x, y, yaw] of each amcl_pose
         true_pose = {}  # robot -> [x, y, yaw], newest from the simulator
@@ -161,6 +180,24 @@ def record(args):
     return 0
 
 
+def serve_map(path, topic=None, frame="map"):
+    import rospy
+    from nav_msgs.msg import OccupancyGrid
+
+    grid, info = map_io.load_map(path)
+    msg = OccupancyGrid()
+    msg.header.frame_id = frame
+    msg.header.stamp = rospy.Time.now()
+    msg.info.resolution = info.resolution
+    msg.info.width, msg.info.height = info.width, info.height
+    msg.info.origin.position.x, msg.info.origin.position.y = info.origin_x, info.origin_y
+    msg.info.origin.orientation.w = 1.0
+    msg.data = grid_to_msg_data(grid)
+    pub = rospy.Publisher(topic or SLAM_MAP_TOPIC, OccupancyGrid, queue_size=1, latch=True)
+    pub.publish(msg)
+    return pub
+
+
 # -- parent: trials and summary ------------------------------------------------------------
 def calibration(world_path):
     """The truth -> map transform from the desk corners in the grid amcl uses."""
@@ -170,10 +207,10 @@ def calibration(world_path):
     return calibrate(truth, found)[0]
 
 
-def analyse(path, world_path):
+def analyse(path, world_path, fit=None):
     with open(path) as f:
         rec = json.load(f)
-    fit = calibration(world_path)
+    fit = fit if fit is not None else calibration(world_path)
     truth = tuple(fit.apply(np.array(rec["truth"], dtype=float)))
     ests = [TargetEstimate(r, x, y, np.array(c), t) for r, t, x, y, c in rec["estimates"]]
     errs = replay_errors(ests, truth, rec["settle_s"], rec["end_s"], variants=VARIANTS)
@@ -225,6 +262,9 @@ def main():
     ap.add_argument("--out", default="/tmp/bench_colloc")
     ap.add_argument("--refine", choices=("on", "off"), default="on",
                     help="amcl's refine_estimate (scan match of the pose; off: as before)")
+    ap.add_argument("--slam-map", type=int, metavar="SEED", default=None,
+                    help="amcl on a map built by the SLAM stand-in (colloc_fusion.slam_map, "
+                    "mapper seed SEED; its own frame, calibrated from the desk corners)")
     ap.add_argument("--reanalyse", action="store_true",
                     help="only recompute the summary from the recordings in --out")
     ap.add_argument("--record", action="store_true", help=argparse.SUPPRESS)
@@ -232,6 +272,9 @@ def main():
     ap.add_argument("--placement", help=argparse.SUPPRESS)
     ap.add_argument("--sim-seed", type=int, default=0, help=argparse.SUPPRESS)
     ap.add_argument("--output", help=argparse.SUPPRESS)
+    ap.add_argument("--calib", type=float, nargs=3, default=[0.0, 0.0, 0.0],
+                    help=argparse.SUPPRESS)
+    ap.add_argument("--map-yaml", default="", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.record:
         return record(args)
@@ -240,13 +283,25 @@ def main():
     rng = np.random.default_rng(args.seed)
     placements = [world_placement(world)] + [random_placement(world.grid, rng, BOUNDS)
                                              for _ in range(args.trials)]
+    fit, map_yaml, child = None, "", []
+    if args.slam_map is not None:
+        map_yaml = os.path.join(args.out, "slam_map.yaml")
+        with open(GMAPPING_YAML) as f:
+            grid, info, fit, exact, failed = slam_map.calibrated_map(
+                world, yaml.safe_load(f), seed=args.slam_map)
+        map_io.save_map(map_yaml, grid, info, comment="SLAM stand-in, seed %d"
+                        % args.slam_map)
+        print(slam_map.describe(args.slam_map, fit, exact, failed, world, map_yaml),
+              flush=True)
+        child = ["--map-yaml", map_yaml, "--calib", repr(fit.theta), repr(fit.tx),
+                 repr(fit.ty)]
     rows = []
     for k, p in enumerate(placements):
         stem = os.path.join(args.out, "trial_%02d" % k)
         with open(stem + "_placement.json", "w") as f:
             json.dump({"cone": p.cone, "robots": p.robots}, f)
         if args.reanalyse:
-            row = analyse(stem + ".json", stem + "_world.yaml")
+            row = analyse(stem + ".json", stem + "_world.yaml", fit)
             row.update(trial=k, cone=p.cone)
             rows.append(row)
             continue
@@ -259,13 +314,13 @@ def main():
                               stem + "_placement.json", "--sim-seed", str(k), "--port",
                               str(port), "--output", stem + ".json", "--settle-s",
                               str(args.settle_s), "--record-s", str(args.record_s),
-                              "--timeout-s", str(args.timeout_s), "--refine", args.refine],
-                             env=env)
+                              "--timeout-s", str(args.timeout_s), "--refine", args.refine]
+                             + child, env=env)
         if res.returncode != 0 or not os.path.isfile(stem + ".json"):
             print("trial %d failed (see %s.json.launch.log)" % (k, stem), flush=True)
             rows.append({"trial": k, "failed": True})
             continue
-        row = analyse(stem + ".json", stem + "_world.yaml")
+        row = analyse(stem + ".json", stem + "_world.yaml", fit)
         row.update(trial=k, wall_s=round(time.monotonic() - t0, 1), cone=p.cone)
         rows.append(row)
         print("trial %d: %s" % (k, ", ".join("%s %.3f" % (m, row[m]) for m in
@@ -276,13 +331,17 @@ def main():
     machine = "%s, %s, %d cores, Python %s" % (platform.node(), platform.processor() or
                                                platform.machine(), os.cpu_count(),
                                                platform.python_version())
+    if fit is not None:
+        summ["slam_calibration"] = {"theta_rad": fit.theta, "t_m": [fit.tx, fit.ty],
+                                    "residuals_m": fit.residuals_m.tolist(),
+                                    "rms_m": fit.rms_m}
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump({"summary": summ, "trials": rows, "machine": machine,
                    "args": vars(args)}, f, indent=1)
     lines = ["| estimate | mean error [m] | max error [m] | trials | beats the best robot |",
              "|---|---|---|---|---|"]
     for k, v in summ.items():
-        if k == "split" or v["mean_m"] is None:
+        if k in ("split", "slam_calibration") or v["mean_m"] is None:
             continue
         lines.append("| %s | %.3f | %.3f | %d | %s |" % (k, v["mean_m"], v["max_m"],
                                                         v["trials"],

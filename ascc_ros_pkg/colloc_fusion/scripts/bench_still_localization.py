@@ -19,24 +19,22 @@ rough guesses: the corners moved by the exact transform), the truth -> map trans
 fitted to them (its residual printed) and used to place the robots' initial poses and to
 compare with the truth (thesis 3.4.1); the fit's own error is printed against the exact
 transform (known here: where the drive started), and the map is written to
-``--map-out`` (PGM + map_server YAML).
+``--map-out`` + .yaml/.pgm (map_server format).
 """
 import argparse
 import os
 import sys
 import tempfile
 
-import cv2
 import numpy as np
 import yaml
 
+from ascc_common import map_io
 from ascc_common.params import from_params
 from ascc_navigation import mcl
 from ascc_sim.world import load_world
 from colloc_fusion import slam_map
 from colloc_fusion.bench import Placement, random_placement, write_placement_world
-from colloc_fusion.calibration import Rigid2D
-from colloc_fusion.landmarks import calibrate, measure
 from colloc_fusion.still_localization import still_robot_errors
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -51,33 +49,11 @@ WRONG_M = 0.3
 def slam_calibration(world, seed, map_out):
     """The SLAM map and the truth -> map transform fitted to the desk corners in it."""
     with open(GMAPPING_YAML) as f:
-        grid, info, start = slam_map.build_map(world, yaml.safe_load(f), seed=seed)
-    th, tx, ty = slam_map.truth_to_map(start)
-    exact = Rigid2D(th, tx, ty, np.zeros(0))
-    truth = {o.name: (o.pose.x, o.pose.y) for o in world.objects if o.type == "landmark"}
-    found, failed = measure(grid, info, {n: exact.apply(np.array(p)) for n, p in truth.items()})
-    fit, names = calibrate(truth, found)
-    save_map(map_out, grid, info)
-    corners = np.array([truth[n] for n in names])
-    moved = np.hypot(*(fit.apply(corners) - exact.apply(corners)).T)
-    print("SLAM map (mapper seed %d, started at true (%.2f, %.2f, %.2f)): %s; corners %s%s"
-          % (seed, start[0], start[1], start[2], map_out + ".yaml", ", ".join(names),
-             (" (not found: %s)" % failed) if failed else ""))
-    print("calibration truth -> map: theta %.4f rad, t (%.3f, %.3f) m; residuals %s m, rms "
-          "%.3f m; against the exact transform: %.4f rad, corners moved %.3f m mean"
-          % (fit.theta, fit.tx, fit.ty, np.round(fit.residuals_m, 3).tolist(), fit.rms_m,
-             fit.theta - th, moved.mean()))
+        grid, info, fit, exact, failed = slam_map.calibrated_map(world, yaml.safe_load(f),
+                                                                 seed=seed)
+    map_io.save_map(map_out + ".yaml", grid, info, comment="SLAM stand-in, seed %d" % seed)
+    print(slam_map.describe(seed, fit, exact, failed, world, map_out + ".yaml"))
     return (grid, info), fit, exact
-
-
-def save_map(stem, grid, info):
-    img = np.where(grid < 0, 205, np.where(grid >= 50, 0, 254)).astype(np.uint8)
-    cv2.imwrite(stem + ".pgm", np.flipud(img))
-    with open(stem + ".yaml", "w") as f:
-        yaml.safe_dump({"image": os.path.basename(stem) + ".pgm",
-                        "resolution": info.resolution,
-                        "origin": [info.origin_x, info.origin_y, 0.0], "negate": 0,
-                        "occupied_thresh": 0.65, "free_thresh": 0.196}, f)
 
 
 def main():

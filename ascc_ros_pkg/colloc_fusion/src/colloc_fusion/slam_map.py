@@ -10,7 +10,6 @@ route, with ascc_sim's wheel-odometry error model starting at zero.
 """
 from __future__ import annotations
 
-import math
 from typing import Sequence, Tuple
 
 import numpy as np
@@ -22,6 +21,8 @@ from ascc_navigation import mapper as M
 from ascc_navigation import synthetic as S
 from ascc_sim.laser import LaserConfig, LaserModel
 
+from .calibration import Rigid2D
+from .landmarks import calibrate, measure
 from .still_localization import LASER_MOUNT
 
 SCAN_PERIOD_S = 0.1  # [s] the URG-04LX
@@ -64,6 +65,32 @@ def truth_to_map(start: Sequence[float]):
     return th, x, y
 
 
-def rotation_of(theta: float) -> np.ndarray:
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[c, -s], [s, c]])
+def calibrated_map(world, mapper_params: dict, seed: int = 0):
+    """``build_map`` and the calibration of thesis 3.4.1 in it: the world's ``landmark``
+    objects (desk corners) measured in the SLAM map (landmarks.measure; the rough guesses
+    are the corners moved by the exact transform, as a person would click them) and the
+    truth -> map transform fitted to them. Returns (grid, info, fit, exact, failed): the
+    fit (Rigid2D with its residuals), the exact transform (Rigid2D) and the corners that
+    could not be measured with why."""
+    grid, info, start = build_map(world, mapper_params, seed=seed)
+    exact = Rigid2D(*truth_to_map(start), np.zeros(0))
+    truth = {o.name: (o.pose.x, o.pose.y) for o in world.objects if o.type == "landmark"}
+    found, failed = measure(grid, info, {n: exact.apply(np.array(p)) for n, p in truth.items()})
+    fit, _ = calibrate(truth, found)
+    return grid, info, fit, exact, failed
+
+
+def describe(seed: int, fit: Rigid2D, exact: Rigid2D, failed: dict, world, path: str) -> str:
+    """Two lines on a calibrated SLAM map: the fit, its residuals, its error."""
+    corners = np.array([(o.pose.x, o.pose.y) for o in world.objects
+                        if o.type == "landmark" and o.name not in failed])
+    moved = np.hypot(*(fit.apply(corners) - exact.apply(corners)).T)
+    start = inverse((exact.tx, exact.ty, exact.theta))
+    return ("SLAM map %s (mapper seed %d, drive started at true (%.2f, %.2f, %.2f))%s\n"
+            "calibration truth -> map from %d corners: theta %.4f rad, t (%.3f, %.3f) m; "
+            "residuals %s m, rms %.3f m; against the exact transform: %.4f rad, the corners "
+            "moved %.3f m (mean)"
+            % (path, seed, start[0], start[1], start[2],
+               ("; not found: %s" % failed) if failed else "", len(corners), fit.theta,
+               fit.tx, fit.ty, np.round(fit.residuals_m, 3).tolist(), fit.rms_m,
+               fit.theta - exact.theta, moved.mean()))
