@@ -207,6 +207,14 @@ def calibration(world_path):
     return calibrate(truth, found)[0]
 
 
+def recorded(path):
+    """True if the recording holds the truth and estimates (not so when another master
+    answered on the port, or the clock jumped past the window)."""
+    with open(path) as f:
+        rec = json.load(f)
+    return rec.get("truth") is not None and bool(rec.get("estimates"))
+
+
 def analyse(path, world_path, fit=None):
     with open(path) as f:
         rec = json.load(f)
@@ -316,7 +324,8 @@ def main():
                               str(args.settle_s), "--record-s", str(args.record_s),
                               "--timeout-s", str(args.timeout_s), "--refine", args.refine]
                              + child, env=env)
-        if res.returncode != 0 or not os.path.isfile(stem + ".json"):
+        if res.returncode != 0 or not os.path.isfile(stem + ".json") or not recorded(
+                stem + ".json"):
             print("trial %d failed (see %s.json.launch.log)" % (k, stem), flush=True)
             rows.append({"trial": k, "failed": True})
             continue
