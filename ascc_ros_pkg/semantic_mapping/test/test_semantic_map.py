@@ -189,6 +189,32 @@ def test_room_belief_and_activity_prior_follow_the_labels():
     assert prior.sum() == pytest.approx(1.0)
 
 
+def test_labels_are_published_with_the_minimum_evidence(tmp_path):
+    sm = make(APARTMENT, min_observations=3, min_belief=0.5)
+    for k in range(3):
+        stay(sm, 3.0 * k, 3.0 * k + 3.0, -0.55, 0.5)   # beside the west wall
+        lab = sm.observe(3.0 * k + 3.0, "lying").label
+        assert lab.label == "bench" and lab.updates == k + 1
+        if k < 2:  # fused, but not yet published: no label, no room rule
+            assert sm.published_labels() == []
+            np.testing.assert_allclose(sm.room_belief(), 1.0 / 3.0)
+            doc = sm.labels_doc()
+            assert doc["labels"] == [] and len(doc["candidates"]) == 1
+    assert sm.published_labels() == [lab]
+    assert np.argmax(sm.room_belief()) == sm.models.rooms.index("bedroom")
+    doc = yaml.safe_load(open(sm.save(str(tmp_path), "sm")["labels"]))
+    assert [d["label"] for d in doc["labels"]] == ["bench"] and doc["candidates"] == []
+    assert doc["min_observations"] == 3
+    # the belief rule: one sitting in the open (CL 1) is dining table or chair, neither
+    # more likely than the others together (Tables 5.1-5.3)
+    sure = make(min_observations=1, min_belief=0.5)
+    stay(sure, 0.0, 3.0, 1.0, 0.5)
+    lab = sure.observe(3.0, "sitting").label
+    assert lab.location_type == 1 and lab.belief.max() < 0.5
+    assert sure.published_labels() == []
+    assert make(min_observations=1, min_belief=0.0).is_published(lab)
+
+
 def test_apartment_models_label_bench_chair_shelf():
     """The apartment's tables: lying, sitting and standing at a wall pick bench, chair
     and shelf."""
@@ -202,7 +228,7 @@ def test_apartment_models_label_bench_chair_shelf():
 
 
 def test_save_writes_map_labels_and_png(tmp_path):
-    sm = make()
+    sm = make(min_observations=1, min_belief=0.0)
     stay(sm, 0.0, 3.0, 0.5, 0.5)
     sm.observe(3.0, "sitting")
     paths = sm.save(str(tmp_path / "out"), "sm")

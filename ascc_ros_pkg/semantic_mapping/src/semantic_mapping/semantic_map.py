@@ -34,6 +34,13 @@ P_{G,t}(F) ∝ P_{G,0}(F) prod_k P(O_k|F) P(CL_G|F) (log space), recomputed by `
 With one CL throughout this is exactly the sequential eq. 5.2 (tested against
 `fusion.posterior`).
 
+Minimum evidence. Every fused grid keeps its belief, but only a label with at least
+``min_observations`` fused activities and a MAP belief of at least ``min_belief`` is
+*published* (`published_labels`: the node's topics and markers, the saved labels, the room
+belief); the others are kept as candidates (saved apart) until they have the evidence. A
+person standing for a moment in the open, or a location that jumped by more than
+``associate_m`` for a window or two, otherwise made a label each.
+
 Revisits (5.6). A label is *left* once the person is tracked farther than
 ``leave_distance_m`` from its cell's centre; a fused observation at a left label's grid
 marks it *returned* ("chair->returned").
@@ -80,6 +87,13 @@ class SemanticMapperParams:
     associate_m: float = param(0.25, "[m] a location this close to a label's location "
                                "is fused at that label's grid (a person sitting on a cell "
                                "border makes one label, not two)", ge=0.0)
+    min_observations: int = param(10, "a label is published (topic, markers, saved "
+                                  "labels, room belief) once this many activities were "
+                                  "fused at its grid (10: 5 s of windows every 0.5 s)",
+                                  ge=1)
+    min_belief: float = param(0.5, "... and once its MAP furniture's belief is at least "
+                              "this (0.5: more likely than all the others together)",
+                              ge=0.0, le=1.0)
     leave_distance_m: float = param(1.0, "[m] the person this far from a label has left it "
                                     "(a later visit is a return)", gt=0.0)
     target_kind: str = param("shirt", "the detection kind that is the person")
@@ -248,35 +262,53 @@ class SemanticMap:
         lab.entropy_bits = entropy(lab.belief)
 
     # -- outputs --------------------------------------------------------------------------
+    def is_published(self, lab: Label) -> bool:
+        """The label has the minimum evidence (``min_observations``, ``min_belief``)."""
+        return lab.updates >= self.p.min_observations and \
+            float(lab.belief.max()) >= self.p.min_belief
+
+    def published_labels(self) -> List[Label]:
+        """The labels with the minimum evidence, by grid."""
+        return [lab for lab in sorted(self.labels.values(), key=lambda lab: lab.grid)
+                if self.is_published(lab)]
+
     def room_belief(self) -> np.ndarray:
+        """P_t(R) from the published labels."""
         return room_belief(self.models, [self.models.furniture.index(lab.label)
-                                         for lab in self.labels.values()])
+                                         for lab in self.published_labels()])
 
     def activity_prior(self) -> np.ndarray:
         """P_t(A) over the models' activities, from P_t(R) (fed back to the recognizer)."""
         return activity_prior(self.models, self.room_belief())
 
     def labels_doc(self) -> dict:
-        """The labels as plain data (the saved YAML)."""
-        return {
-            "frame": self.p.map_frame,
-            "grid_resolution_m": self.p.grid_resolution_m,
-            "furniture": list(self.models.furniture),
-            "rooms": {r: round(float(p), 6) for r, p in zip(self.models.rooms,
-                                                             self.room_belief())},
-            "labels": [{
+        """The labels as plain data (the saved YAML): ``labels`` the published ones,
+        ``candidates`` those without the minimum evidence yet."""
+        def doc(lab: Label) -> dict:
+            return {
                 "grid": [int(lab.grid[0]), int(lab.grid[1])],
                 "position_m": [round(lab.x, 4), round(lab.y, 4)],
                 "label": lab.label, "text": lab.text, "returned": bool(lab.returned),
                 "belief": [round(float(b), 6) for b in lab.belief],
                 "entropy_bits": round(lab.entropy_bits, 6),
                 "location_type": int(lab.location_type), "updates": lab.updates,
-            } for lab in sorted(self.labels.values(), key=lambda lab: lab.grid)],
+            }
+        everything = sorted(self.labels.values(), key=lambda lab: lab.grid)
+        return {
+            "frame": self.p.map_frame,
+            "grid_resolution_m": self.p.grid_resolution_m,
+            "furniture": list(self.models.furniture),
+            "rooms": {r: round(float(p), 6) for r, p in zip(self.models.rooms,
+                                                             self.room_belief())},
+            "min_observations": int(self.p.min_observations),
+            "min_belief": float(self.p.min_belief),
+            "labels": [doc(lab) for lab in everything if self.is_published(lab)],
+            "candidates": [doc(lab) for lab in everything if not self.is_published(lab)],
         }
 
     def save(self, directory: str, stem: str) -> Dict[str, str]:
         """map_server YAML + PGM of the occupancy map, ``<stem>_labels.yaml`` and a PNG
-        with the labels drawn; returns the paths. LocationError without a map."""
+        with the published labels drawn; returns the paths. LocationError without a map."""
         if self.grid is None:
             raise LocationError("no occupancy map to save yet")
         os.makedirs(directory, exist_ok=True)
@@ -286,7 +318,7 @@ class SemanticMap:
         with open(base + "_labels.yaml", "w", encoding="utf-8") as f:
             yaml.safe_dump(self.labels_doc(), f, sort_keys=False)
         png = base + ".png"
-        if not cv2.imwrite(png, draw_labels(self.grid, self.info, self.labels.values(),
+        if not cv2.imwrite(png, draw_labels(self.grid, self.info, self.published_labels(),
                                             furniture=self.models.furniture,
                                             crop_margin_m=0.5)):
             raise OSError("cannot write %s" % png)

@@ -7,7 +7,7 @@ The person's location: every ``target`` (target_follower/Target) detection of ki
 window (`semantic_map.SemanticMap`): grid G, location type CL on ``map``
 (nav_msgs/OccupancyGrid), eq. 5.1-5.3. Out: ``semantic_labels``
 (semantic_mapping/SemanticLabelArray, latched), ``semantic_markers``
-(visualization_msgs/MarkerArray, latched: a cylinder and the text per label),
+(visualization_msgs/MarkerArray, latched: a cylinder and the text per published label),
 ``activity_prior`` (semantic_mapping/ActivityPrior, latched: the room belief fed back to the
 recognizer, once a room rule has fired). Service ``~save`` (std_srvs/Trigger) writes map
 YAML + PGM, labels YAML and a PNG to ``~output_dir``; so does shutdown when it is set.
@@ -125,13 +125,16 @@ class SemanticMapperNode:
     # -- outputs --------------------------------------------------------------------------
     def publish(self, stamp):
         with self.lock:
-            labels = sorted(self.map.labels.values(), key=lambda lab: lab.grid)
+            labels = self.map.published_labels()
             rooms = self.map.room_belief()
         arr = SemanticLabelArray()
         arr.header.stamp, arr.header.frame_id = stamp, self.p.map_frame
         arr.furniture = list(self.models.furniture)
         arr.rooms, arr.room_belief = list(self.models.rooms), [float(v) for v in rooms]
         markers = MarkerArray()
+        clear = Marker()  # a label can lose its evidence (a new map, more activities)
+        clear.header, clear.ns, clear.action = arr.header, "semantic_labels", Marker.DELETEALL
+        markers.markers.append(clear)
         size = 0.8 * self.p.grid_resolution_m
         for i, lab in enumerate(labels):
             m = SemanticLabel(grid_x=lab.grid[0], grid_y=lab.grid[1],
