@@ -24,7 +24,8 @@ from semantic_mapping.body_signals import Person, render
 def test_features_are_means_and_variances_of_each_window():
     rng = np.random.default_rng(0)
     waist, thigh = rng.normal(size=(200, 3)), rng.normal(5.0, 2.0, size=(200, 3))
-    cfg = RecognizerConfig(window_s=2.0, hop_s=0.5, rate_hz=20.0, features="extended")
+    cfg = RecognizerConfig(window_s=2.0, hop_s=0.5, rate_hz=20.0, features="extended",
+                           variance="linear")
     feats, ends = window_features(waist, thigh, cfg)
     assert ends.tolist() == list(range(40, 201, 10)) and feats.shape == (17, 18)
     for i, e in enumerate(ends):
@@ -33,10 +34,32 @@ def test_features_are_means_and_variances_of_each_window():
             win = a[e - 40:e]
             row += [win.mean(0), win.var(0), np.diff(win, axis=0).var(0)]
         assert feats[i] == pytest.approx(np.concatenate(row), abs=1e-9)
-    thesis, _ = window_features(waist, thigh, RecognizerConfig(window_s=2.0, hop_s=0.5))
+    thesis, _ = window_features(waist, thigh, RecognizerConfig(window_s=2.0, hop_s=0.5,
+                                                               variance="linear"))
     assert thesis.shape == (17, 12) and thesis == pytest.approx(feats[:, [0, 1, 2, 3, 4, 5,
                                                                          9, 10, 11, 12, 13,
                                                                          14]])
+    # the default: the same means, every variance as log10(variance + floor)
+    logs, _ = window_features(waist, thigh, RecognizerConfig(window_s=2.0, hop_s=0.5,
+                                                             features="extended"))
+    means = np.zeros(18, bool)
+    means[[0, 1, 2, 9, 10, 11]] = True
+    assert logs[:, means] == pytest.approx(feats[:, means], abs=1e-12)
+    assert logs[:, ~means] == pytest.approx(np.log10(feats[:, ~means] + 0.01), abs=1e-9)
+    held, _ = window_features(np.ones((60, 3)), np.ones((60, 3)),  # a sleeping sensor
+                              RecognizerConfig(window_s=2.0, hop_s=0.5, features="extended"))
+    assert held[:, ~means] == pytest.approx(-2.0)
+
+
+def test_a_model_saved_before_log_variances_keeps_linear_ones():
+    import pickle
+    old = RecognizerConfig(window_s=3.0, variance="linear")
+    state = dict(old.__dict__)
+    del state["variance"], state["variance_floor"]
+    loaded = RecognizerConfig.__new__(RecognizerConfig)
+    loaded.__setstate__(state)
+    assert loaded.variance == "linear" and loaded.window_s == 3.0
+    assert pickle.loads(pickle.dumps(RecognizerConfig())).variance == "log"
 
 
 def test_window_labels_centre_and_purity():

@@ -3,7 +3,11 @@
 
 Features (as in 5.4.2): per window of ``window_s`` every ``hop_s``, the mean and the
 variance of each axis of the 3D acceleration of each sensor (12 numbers), standardised;
-``features="extended"`` adds the variance of the sample differences (18 numbers).
+``features="extended"`` adds the variance of the sample differences (18 numbers). The
+variances enter as log10(variance + ``variance_floor``) (``variance="log"``, the default;
+"linear": as they are): a bend's variance against a tremor's is a factor 20, which the
+linear scale, spanning walking's variances too, squeezed into a few hundredths of a
+standard deviation.
 Three recognizers, all trained on labelled windows of several persons:
 
     nn       a neural network (scikit-learn MLPClassifier): P(A | x_t)
@@ -69,12 +73,20 @@ class RecognizerConfig:
     rate_hz: float = 20.0          # [Hz] sample rate of the sensors
     kind: str = "nn_hmm"           # nn | hmm | nn_hmm
     features: str = "thesis"       # thesis (mean, variance) | extended (+ difference var.)
+    variance: str = "log"          # log: log10(variance + variance_floor) | linear
+    variance_floor: float = 0.01   # [m^2/s^4] (0.1 m/s^2)^2, above the sensors' noise
     n_symbols: int = 48            # k-means clusters (HMM observation symbols)
     hidden: Tuple[int, ...] = (64,)  # network's hidden layer sizes
     unknown_quantile: float = 0.995  # of a class's own training distances
     unknown_ridge: float = 0.01    # added to each class covariance (standardised units)
     seed: int = 0
     classes: Tuple[str, ...] = field(default=ACTIVITIES)
+
+    def __setstate__(self, state: dict) -> None:
+        """A model saved before ``variance`` existed used linear variances."""
+        state.setdefault("variance", "linear")
+        state.setdefault("variance_floor", 0.01)
+        self.__dict__.update(state)
 
     def samples(self) -> Tuple[int, int]:
         return (max(1, int(round(self.window_s * self.rate_hz))),
@@ -95,7 +107,11 @@ def window_features(waist: np.ndarray, thigh: np.ndarray,
     (cumulative sums, no loop). Per sensor, waist then thigh: the mean and the variance
     of each axis (``features`` "thesis": 12 numbers); "extended" adds the variance of the
     sample-to-sample differences of each axis (18 numbers), which grows with a motion's
-    frequency (a tremor, against slow bends of the same variance)."""
+    frequency (a tremor, against slow bends of the same variance). ``variance`` "log":
+    each variance as log10(variance + ``variance_floor``), so that a ratio counts the same
+    whatever the scale (a bend's 0.4 against a tremor's 0.02 m^2/s^4 as much as walking's
+    10 against 0.5) and a sleeping sensor's held sample (variance 0) and sensor noise
+    come out alike (below the floor)."""
     w, hop = config.samples()
     a = np.hstack([np.asarray(waist, float), np.asarray(thigh, float)])
     ends = np.arange(w, a.shape[0] + 1, hop)
@@ -106,6 +122,9 @@ def window_features(waist: np.ndarray, thigh: np.ndarray,
         _, dvar = _window_moments(d, ends, max(w - 1, 1))  # the w - 1 inside the window
         parts[0].append(dvar[:, :3])
         parts[1].append(dvar[:, 3:])
+    if config.variance == "log":
+        for p in parts:
+            p[1:] = [np.log10(v + config.variance_floor) for v in p[1:]]
     return np.hstack(parts[0] + parts[1]), ends
 
 

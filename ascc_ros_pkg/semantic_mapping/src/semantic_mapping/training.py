@@ -1,5 +1,6 @@
 """``rosrun semantic_mapping train_activity [--train-seeds ...] [--test-seeds ...]
-[--unknown-seeds ...] [--kind nn|hmm|nn_hmm] [--out MODEL] [--table YAML]``: trains the
+[--kind nn|hmm|nn_hmm] [--features thesis|extended] [--variance log|linear]
+[--power on|off] [--windows 3,4.5,6] [--out MODEL] [--table YAML]``: trains the
 activity recognizer (`activity.Recognizer`) on emulator recordings of some persons and
 measures it on persons never used in training (thesis 5.4.2).
 
@@ -112,7 +113,8 @@ def accuracies(true: Sequence[str], pred: Sequence[str],
 
 
 def select(seeds: Sequence[int], windows: Sequence[float], features: Sequence[str],
-           folds: int = 3, power: bool = True) -> Tuple[str, float, str, List[str]]:
+           folds: int = 3, power: bool = True,
+           variance: str = "log") -> Tuple[str, float, str, List[str]]:
     """Model selection on the training persons only, by ``folds``-fold cross-validation
     over persons (each fold's persons validate a recognizer trained on the others; the
     validation windows of all folds are pooled). The (features, window, kind) whose worst
@@ -124,7 +126,7 @@ def select(seeds: Sequence[int], windows: Sequence[float], features: Sequence[st
     best = (-1.0, features[0], windows[0], KINDS[0])
     for feat in features:
         for w in windows:
-            config = RecognizerConfig(window_s=w, features=feat)
+            config = RecognizerConfig(window_s=w, features=feat, variance=variance)
             pooled = {kind: ([], []) for kind in KINDS}
             for g in groups:
                 rec = train([s for s in seeds if s not in g], config, power)
@@ -172,6 +174,8 @@ def main(argv: Optional[List[str]] = None) -> int:
                     help="window features (default: chosen on the training persons)")
     ap.add_argument("--power", choices=("on", "off"), default="on",
                     help="the sensors' sleep/wake scheme (on: as the emulator node runs)")
+    ap.add_argument("--variance", choices=("log", "linear"), default="log",
+                    help="variance features as log10(variance + 0.01 m^2/s^4) or linear")
     ap.add_argument("--windows", default="3,4.5,6",
                     help="window lengths [s] to choose from (3,4.5,6)")
     ap.add_argument("--out", help="save the trained recognizer here (joblib)")
@@ -186,16 +190,19 @@ def main(argv: Optional[List[str]] = None) -> int:
         ap.error("a person is in both --train-seeds and --test-seeds")
     features = [args.features] if args.features else ["thesis", "extended"]
     power = args.power == "on"
-    feat, window, kind, lines = select(train_seeds, windows, features, power=power)
+    feat, window, kind, lines = select(train_seeds, windows, features, power=power,
+                                       variance=args.variance)
     print("\n".join(lines))
     kind = args.kind or kind
-    config = RecognizerConfig(window_s=window, kind=kind, features=feat)
+    config = RecognizerConfig(window_s=window, kind=kind, features=feat,
+                              variance=args.variance)
     rec = train(train_seeds, config, power)
     held = [record(seed, config, unknown=True, power=power) for seed in test]
-    print("activity recognition (thesis 5.4.2): %s features, window %g s every %g s, %s, "
-          "power scheme %s; trained on persons %s, tested on held-out persons %s (windows "
-          "wholly inside one activity)" % (feat, config.window_s, config.hop_s, kind,
-                                           args.power, args.train_seeds, args.test_seeds))
+    print("activity recognition (thesis 5.4.2): %s features (%s variances), window %g s "
+          "every %g s, %s, power scheme %s; trained on persons %s, tested on held-out "
+          "persons %s (windows wholly inside one activity)"
+          % (feat, args.variance, config.window_s, config.hop_s, kind, args.power,
+             args.train_seeds, args.test_seeds))
     results = {}
     for k in KINDS:
         results[k] = evaluate(rec, held, k)
