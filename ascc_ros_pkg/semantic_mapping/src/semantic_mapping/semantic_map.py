@@ -87,9 +87,9 @@ class SemanticMapperParams:
     associate_m: float = param(0.25, "[m] a location this close to a label's location "
                                "is fused at that label's grid (a person sitting on a cell "
                                "border makes one label, not two)", ge=0.0)
-    min_observations: int = param(10, "a label is published (topic, markers, saved "
+    min_observations: int = param(5, "a label is published (topic, markers, saved "
                                   "labels, room belief) once this many activities were "
-                                  "fused at its grid (10: 5 s of windows every 0.5 s)",
+                                  "fused at its grid (5: 2.5 s of windows every 0.5 s)",
                                   ge=1)
     min_belief: float = param(0.5, "... and once its MAP furniture's belief is at least "
                               "this (0.5: more likely than all the others together)",
