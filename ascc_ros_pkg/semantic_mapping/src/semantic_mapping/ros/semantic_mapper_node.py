@@ -99,6 +99,10 @@ class SemanticMapperNode:
             self.warn("tf", "no robot pose %s -> %s at the target's stamp: %s"
                       % (self.p.map_frame, self.p.base_frame, err))
             return
+        except rospy.exceptions.ROSTimeMovedBackwardsException:
+            self.warn("clock", "the clock jumped back while waiting for TF (the simulator "
+                      "restarted?): the target ignored")
+            return
         t = tr.transform.translation
         x, y = human_location(t.x, t.y, yaw_of(tr.transform.rotation),
                               det.range_m + self.p.body_radius_m,
