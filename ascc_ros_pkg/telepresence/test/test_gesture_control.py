@@ -1,6 +1,7 @@
 """Gesture motion control (telepresence.gesture_control): come close to the laser's stop
 distance, back off by the odometry's distance, time-outs, no motion without measuring."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -38,6 +39,17 @@ def test_distance_ahead_is_the_nearest_point_in_the_path():
                                                                                      abs=0.01)
     nothing = np.full(ANGLES.size, np.nan)
     assert distance_ahead(nothing, ANGLES, (0.05, 0.0), 0.02, 5.6, 0.2) == pytest.approx(5.65)
+
+
+def test_distance_ahead_of_nan_and_inf_readings_warns_nothing():
+    """numpy 1.17 (Ubuntu 20.04) warns on every comparison with NaN: robot logs."""
+    scan = wall_scan(2.0)
+    scan[::3] = np.nan
+    scan[1::3] = np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert distance_ahead(scan, ANGLES, (0.0, 0.0), 0.02, 5.6, 0.2) == pytest.approx(
+            2.0, abs=0.01)
 
 
 def run_come_close(x0, dt=0.1, scan_ok=lambda t: True, steps=400):

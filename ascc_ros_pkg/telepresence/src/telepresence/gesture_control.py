@@ -67,7 +67,9 @@ def distance_ahead(ranges: Sequence[float], angles: np.ndarray, mount_xy: Tuple[
     mount) when no beam hits there. ``angles``: the beams' directions in base_link;
     readings outside [range_min, range_max] or not finite are no hits."""
     r = np.asarray(ranges, dtype=float)
-    ok = np.isfinite(r) & (r >= range_min) & (r <= range_max)
+    finite = np.isfinite(r)
+    r = np.where(finite, r, -1.0)  # no comparison with NaN (numpy 1.17 warns on each)
+    ok = finite & (r >= range_min) & (r <= range_max)
     x = mount_xy[0] + r * np.cos(angles)
     y = mount_xy[1] + r * np.sin(angles)
     hit = ok & (x > 0.0) & (np.abs(y) <= half_width_m)
