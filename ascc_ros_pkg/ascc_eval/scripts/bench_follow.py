@@ -15,7 +15,10 @@ the table to OUT/results.json. About 2.5 minutes of wall time per office run.
 
     python ascc_ros_pkg/ascc_eval/scripts/bench_follow.py [--seeds 0 1 2 3 4]
         [--world office_follow] [--rtf 1] [--out output/bench_follow] [--report-only]
-        [--follower-params FILE.yaml]
+        [--follower-params FILE.yaml] [--record]
+
+`--record`: each run also writes OUT/<world>_seed<n>/run.bag (the follower's target, odom,
+scan, cmd_vel, state, trail and the simulator's ground truth) for `plot_follow_run.py`.
 """
 import argparse
 import json
@@ -31,14 +34,16 @@ KEYS = ("straight_error_mean_m", "straight_error_p95_m", "straight_error_max_m",
         "person_path_m", "end_reason")
 
 
-def run_one(world, seed, rtf, out, port, timeout_s, max_time_s, follower_params=""):
+def run_one(world, seed, rtf, out, port, timeout_s, max_time_s, follower_params="",
+            record=False, http_port=18080):
     run_dir = os.path.join(out, "%s_seed%d" % (world, seed))
     wall = run_launch(os.path.join(ROOT, "launch", "sim", "follow.launch"),
                       {"world": os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
                                              world + ".yaml"),
                        "seed": seed, "real_time_factor": rtf, "monitor": "true",
                        "output_dir": run_dir, "label": "%s seed %d" % (world, seed),
-                       "max_time_s": max_time_s, "follower_params": follower_params},
+                       "max_time_s": max_time_s, "follower_params": follower_params,
+                       "record": "true" if record else "false", "http_port": http_port},
                       run_dir, port, timeout_s, "%s/seed %d" % (world, seed))
     path = os.path.join(run_dir, "%s_seed_%d.json" % (world, seed))
     row = {"world": world, "seed": seed, "wall_s": round(wall, 1)}
@@ -93,8 +98,12 @@ def main(argv=None):
     ap.add_argument("--max-time-s", type=float, default=400.0)
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_follow"))
     ap.add_argument("--port", type=int, default=11511)
+    ap.add_argument("--http-port", type=int, default=18080,
+                    help="loopback port of the simulated camera's MJPEG stream")
     ap.add_argument("--follower-params", default="",
                     help="YAML of target_follower ~parameters over the defaults")
+    ap.add_argument("--record", action="store_true",
+                    help="record a bag of each run (run.bag in its directory)")
     ap.add_argument("--report-only", action="store_true")
     args = ap.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
@@ -108,7 +117,7 @@ def main(argv=None):
         for seed in args.seeds:
             print("[bench_follow] %s seed %d ..." % (args.world, seed), flush=True)
             row = run_one(args.world, seed, args.rtf, args.out, args.port, 900,
-                          args.max_time_s, params)
+                          args.max_time_s, params, args.record, args.http_port)
             rows = [r for r in rows if (r["world"], r["seed"]) != (args.world, seed)]
             rows.append(row)
             with open(table, "w") as f:

@@ -1,0 +1,169 @@
+#!/usr/bin/env python3
+"""Plot one recorded following run (`bench_follow.py --record`: OUT/<world>_seed<n>/run.bag).
+
+Draws, in the map frame, the person's true path, the robot's true path, the follower's
+trail (its newest ``target_follower/trail`` in the window, recorded in odom and brought
+into the map through the robot's true pose and its odometry at that time) and the
+detector's measured target positions (base_link -> map through the true pose), over a
+time window; below, against time: the true distance robot -> person's surface, the
+detector's range and its error, and the follower's state. Prints the detections whose
+measured position is more than ``--bad-m`` from the person's true position (what could
+make a bad trail point) and the trail points farther than that from the person's path.
+
+    python ascc_ros_pkg/ascc_eval/scripts/plot_follow_run.py RUN.bag [--t0 S --t1 S]
+        [--out PNG] [--title TEXT] [--bad-m 0.25]
+"""
+import argparse
+import math
+import sys
+
+import numpy as np
+import rosbag
+
+from ascc_common.pose2d import yaw_of
+
+
+def _pose(p):
+    return (p.position.x, p.position.y, yaw_of(p.orientation))
+
+
+def load(path):
+    """The run's series as numpy arrays (times in seconds, sim clock)."""
+    truth, odom, person, targets, trails, states = [], [], [], [], [], []
+    with rosbag.Bag(path) as bag:
+        for topic, msg, _t in bag.read_messages():
+            topic = topic.lstrip("/")
+            if topic == "ground_truth/asccbot/pose":
+                truth.append((msg.header.stamp.to_sec(),) + _pose(msg.pose))
+            elif topic == "odom":
+                odom.append((msg.header.stamp.to_sec(),) + _pose(msg.pose.pose))
+            elif topic == "ground_truth/people" and msg.objects:
+                o = msg.objects[0]
+                person.append((msg.header.stamp.to_sec(), o.pose.position.x,
+                               o.pose.position.y, o.radius))
+            elif topic == "target":
+                t = msg.header.stamp.to_sec()
+                for d in msg.detections[:1]:
+                    targets.append((t, d.position.x, d.position.y, d.range_m,
+                                    d.bearing_rad, d.range_source, d.confidence))
+            elif topic == "target_follower/trail":
+                trails.append((msg.header.stamp.to_sec(),
+                               [(p.pose.position.x, p.pose.position.y) for p in msg.poses]))
+            elif topic == "target_follower/state":
+                states.append((_t.to_sec(), msg.data))
+    return {"truth": np.array(truth), "odom": np.array(odom), "person": np.array(person),
+            "targets": np.array(targets).reshape(-1, 7), "trails": trails, "states": states}
+
+
+def interp_pose(series, t):
+    """(x, y, yaw) of a (t, x, y, yaw) series at times t (yaw unwrapped)."""
+    yaw = np.unwrap(series[:, 3])
+    return np.stack([np.interp(t, series[:, 0], series[:, 1]),
+                     np.interp(t, series[:, 0], series[:, 2]),
+                     np.interp(t, series[:, 0], yaw)], axis=-1)
+
+
+def base_to_map(pose, xy):
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    return np.stack([pose[..., 0] + c * xy[..., 0] - s * xy[..., 1],
+                     pose[..., 1] + s * xy[..., 0] + c * xy[..., 1]], axis=-1)
+
+
+def odom_to_map(run, t, pts):
+    """Odom points at time t into the map: map = truth(t) * odom(t)^-1 * p."""
+    tr = interp_pose(run["truth"], np.array([t]))[0]
+    od = interp_pose(run["odom"], np.array([t]))[0]
+    pts = np.asarray(pts, float).reshape(-1, 2)
+    c, s = math.cos(od[2]), math.sin(od[2])
+    d = pts - od[:2]
+    local = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=-1)
+    return base_to_map(np.broadcast_to(tr, (len(pts), 3)), local)
+
+
+def detections_in_map(run):
+    """(t, x, y, true error [m], range error [m]) of the best detection of each frame."""
+    tg = run["targets"]
+    tg = tg[np.isfinite(tg[:, 1]) & np.isfinite(tg[:, 2])]
+    if not len(tg) or not len(run["person"]):
+        return np.zeros((0, 5))
+    pose = interp_pose(run["truth"], tg[:, 0])
+    xy = base_to_map(pose, tg[:, 1:3])
+    pp = run["person"]
+    px, py = np.interp(tg[:, 0], pp[:, 0], pp[:, 1]), np.interp(tg[:, 0], pp[:, 0], pp[:, 2])
+    err = np.hypot(xy[:, 0] - px, xy[:, 1] - py)
+    # the range the detector should have measured: to the person's near surface
+    true_rng = np.hypot(px - pose[:, 0], py - pose[:, 1]) - np.interp(tg[:, 0], pp[:, 0], pp[:, 3])
+    return np.column_stack([tg[:, 0], xy, err, tg[:, 3] - true_rng])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("bag")
+    ap.add_argument("--t0", type=float, default=-math.inf)
+    ap.add_argument("--t1", type=float, default=math.inf)
+    ap.add_argument("--out", default="")
+    ap.add_argument("--title", default="")
+    ap.add_argument("--bad-m", type=float, default=0.25)
+    args = ap.parse_args(argv)
+    run = load(args.bag)
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tr, pp = run["truth"], run["person"]
+    t0 = max(args.t0, tr[0, 0])
+    t1 = min(args.t1, tr[-1, 0])
+    det = detections_in_map(run)
+    win = (det[:, 0] >= t0) & (det[:, 0] <= t1)
+    bad = det[win & (det[:, 3] > args.bad_m)]
+    print("detections in [%.1f, %.1f] s: %d, farther than %.2f m from the person: %d"
+          % (t0, t1, int(win.sum()), args.bad_m, len(bad)))
+    for row in bad[:40]:
+        print("  t=%.2f  at (%.2f, %.2f)  off by %.2f m, range error %+.2f m" % tuple(row))
+    trails = [(t, pts) for t, pts in run["trails"] if t0 <= t <= t1 and pts]
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 10),
+                                  gridspec_kw={"height_ratios": [3, 1.3]})
+    sel = (tr[:, 0] >= t0) & (tr[:, 0] <= t1)
+    psel = (pp[:, 0] >= t0) & (pp[:, 0] <= t1)
+    ax.plot(pp[psel, 1], pp[psel, 2], "-", color="tab:orange", lw=2, label="person (truth)")
+    ax.plot(tr[sel, 1], tr[sel, 2], "-", color="tab:blue", lw=1.5, label="robot (truth)")
+    ax.plot(det[win, 1], det[win, 2], ".", color="tab:green", ms=2,
+            label="detections (measured, in map)")
+    if len(bad):
+        ax.plot(bad[:, 1], bad[:, 2], "x", color="tab:red", ms=5,
+                label="detections > %.2f m off" % args.bad_m)
+    for i, (t, pts) in enumerate(trails[::max(1, len(trails) // 6)]):
+        m = odom_to_map(run, t, pts)
+        ax.plot(m[:, 0], m[:, 1], ".-", color="tab:purple", ms=3, lw=0.6, alpha=0.7,
+                label="follower's trail (snapshots)" if i == 0 else None)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    ax.set_xlabel("x [m] (map)")
+    ax.set_ylabel("y [m]")
+    ax.set_title(args.title or "%s, t = %.0f-%.0f s" % (args.bag, t0, t1), fontsize=9)
+    # distances against time
+    rp = interp_pose(tr, pp[:, 0])
+    dist = np.hypot(pp[:, 1] - rp[:, 0], pp[:, 2] - rp[:, 1]) - pp[:, 3]
+    ax2.plot(pp[psel, 0], dist[psel], "-", color="k", lw=1, label="true distance")
+    tg = run["targets"]
+    tsel = (tg[:, 0] >= t0) & (tg[:, 0] <= t1)
+    ax2.plot(tg[tsel, 0], tg[tsel, 3], ".", ms=2, color="tab:green", label="detector's range")
+    ax2.axhspan(0.9, 1.5, color="tab:green", alpha=0.08)
+    states = [(t, s) for t, s in run["states"] if t0 <= t <= t1]
+    for t, s in states:
+        ax2.axvline(t, color="0.6", lw=0.5)
+        ax2.text(t, ax2.get_ylim()[1], s, rotation=90, fontsize=6, va="top")
+    ax2.set_xlabel("t [s]")
+    ax2.set_ylabel("[m]")
+    ax2.grid(alpha=0.3)
+    ax2.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    out = args.out or args.bag.replace(".bag", ".png")
+    fig.savefig(out, dpi=90)
+    print("wrote", out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
