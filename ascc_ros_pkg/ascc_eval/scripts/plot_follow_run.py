@@ -11,9 +11,16 @@ measured position is more than ``--bad-m`` from the person's true position (what
 make a bad trail point) and the trail points farther than that from the person's path.
 
     python ascc_ros_pkg/ascc_eval/scripts/plot_follow_run.py RUN.bag [--t0 S --t1 S]
-        [--out PNG] [--title TEXT] [--bad-m 0.25]
+        [--out PNG] [--title TEXT] [--bad-m 0.25] [--fixture JSON]
+
+The bearings are also compared with the truth to measure the camera's latency (the delay
+from the frame's exposure to its stamp that best explains the bearing errors). ``--fixture``
+writes the window's data for a replay test (target_follower/test/data): the followed
+target's measured positions (stamp, base_link), the odometry at 20 Hz, the person's true
+path in the odom frame and the latency measured on the truth.
 """
 import argparse
+import json
 import math
 import sys
 
@@ -96,6 +103,55 @@ def detections_in_map(run):
     return np.column_stack([tg[:, 0], xy, err, tg[:, 3] - true_rng])
 
 
+def bearing_latency(run, t0=-math.inf, t1=math.inf, max_s=1.0, step_s=0.02):
+    """(latency [s], rms bearing error at the stamp, rms at that latency [rad]): the delay
+    d that makes the detections' bearings best match the true bearing at stamp - d."""
+    tg, tr, pp = run["targets"], run["truth"], run["person"]
+    tg = tg[np.isfinite(tg[:, 4]) & (tg[:, 0] >= t0) & (tg[:, 0] <= t1)]
+
+    def rms(delay):
+        t = tg[:, 0] - delay
+        pose = interp_pose(tr, t)
+        px, py = np.interp(t, pp[:, 0], pp[:, 1]), np.interp(t, pp[:, 0], pp[:, 2])
+        e = np.angle(np.exp(1j * (tg[:, 4] - np.arctan2(py - pose[:, 1], px - pose[:, 0])
+                                  + pose[:, 2])))
+        return float(np.sqrt(np.mean(e ** 2)))
+    delays = np.arange(0.0, max_s, step_s)
+    errs = [rms(d) for d in delays]
+    i = int(np.argmin(errs))
+    return float(delays[i]), errs[0], errs[i]
+
+
+def write_fixture(run, path, t0, t1, source=""):
+    """The window's data for a replay test (module doc), rounded (mm, mrad, ms)."""
+    tg, od, pp = run["targets"], run["odom"], run["person"]
+    sel = (tg[:, 0] >= t0) & (tg[:, 0] <= t1) & np.isfinite(tg[:, 1])
+    grid = np.arange(t0 - 2.0, t1 + 0.5, 0.05)
+    odom = interp_pose(od, grid)
+    pt = np.arange(t0 - 2.0, t1 + 0.5, 0.2)
+    person_map = np.column_stack([np.interp(pt, pp[:, 0], pp[:, 1]),
+                                  np.interp(pt, pp[:, 0], pp[:, 2])])
+    person_odom = np.array([odom_from_map(run, t, xy) for t, xy in zip(pt, person_map)])
+    latency, _, _ = bearing_latency(run, t0, t1)
+    data = {"source": "bench_follow.py --record, %s, t = %.1f-%.1f s" % (source, t0, t1),
+            "latency_truth_fit_s": round(latency, 3),
+            "detections": np.round(tg[sel][:, :3], 3).tolist(),  # t, x, y in base_link
+            "odom": np.round(np.column_stack([grid, odom]), 3).tolist(),  # t, x, y, yaw
+            "person_odom": np.round(np.column_stack([pt, person_odom]), 3).tolist()}
+    with open(path, "w") as f:
+        json.dump(data, f, separators=(",", ":"))
+
+
+def odom_from_map(run, t, xy):
+    """A map point at time t in the odom frame: odom(t) * truth(t)^-1 * p."""
+    tr = interp_pose(run["truth"], np.array([t]))[0]
+    od = interp_pose(run["odom"], np.array([t]))[0]
+    c, s = math.cos(tr[2]), math.sin(tr[2])
+    d = np.asarray(xy, float) - tr[:2]
+    local = np.array([[c * d[0] + s * d[1], -s * d[0] + c * d[1]]])
+    return base_to_map(od[None, :], local)[0]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("bag")
@@ -104,8 +160,13 @@ def main(argv=None):
     ap.add_argument("--out", default="")
     ap.add_argument("--title", default="")
     ap.add_argument("--bad-m", type=float, default=0.25)
+    ap.add_argument("--fixture", default="")
     args = ap.parse_args(argv)
     run = load(args.bag)
+    if args.fixture:
+        write_fixture(run, args.fixture, args.t0, args.t1, args.bag)
+        print("wrote", args.fixture)
+        return 0
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -118,6 +179,9 @@ def main(argv=None):
     bad = det[win & (det[:, 3] > args.bad_m)]
     print("detections in [%.1f, %.1f] s: %d, farther than %.2f m from the person: %d"
           % (t0, t1, int(win.sum()), args.bad_m, len(bad)))
+    lat, rms0, rms1 = bearing_latency(run, t0, t1)
+    print("camera latency on the truth: %.2f s (bearing error rms %.3f rad at the stamp, "
+          "%.3f rad at stamp - latency)" % (lat, rms0, rms1))
     for row in bad[:40]:
         print("  t=%.2f  at (%.2f, %.2f)  off by %.2f m, range error %+.2f m" % tuple(row))
     trails = [(t, pts) for t, pts in run["trails"] if t0 <= t <= t1 and pts]

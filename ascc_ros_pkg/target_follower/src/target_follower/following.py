@@ -12,6 +12,7 @@ from ascc_common.params import nested, param
 from ascc_common.pose2d import wrap_angle
 
 from .follower import FollowerParams
+from .latency import LatencyParams
 from .tracker import KINDS, Observation, TrackerParams
 from .trail import TrailParams
 
@@ -32,6 +33,15 @@ class TargetFollowerParams:
     follower: FollowerParams = nested(FollowerParams)
     tracker: TrackerParams = nested(TrackerParams)
     trail: TrailParams = nested(TrailParams)
+    latency: LatencyParams = nested(LatencyParams)
+
+    def odom_keep_s(self) -> float:
+        """[s] odometry to keep: ``odom_history_s``, or more when the latency estimate
+        needs it (its window and largest latency)."""
+        lat = self.latency
+        need = lat.latency_window_s + lat.max_latency_s + 1.0 if lat.estimate_latency \
+            else lat.latency_s + 1.0
+        return max(self.odom_history_s, need)
 
 
 class OdomHistory:

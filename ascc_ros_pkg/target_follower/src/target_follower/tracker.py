@@ -104,6 +104,7 @@ class Track:
     vel: np.ndarray = field(default_factory=lambda: np.zeros(2))  # [m/s]
     seen: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))  # last measured
     # position [m, odom] (unfiltered: what the trail records)
+    seen_base: Tuple[float, float] = (math.nan, math.nan)  # the same in base_link [m]
     innovation_m: float = math.nan  # |seen - predicted| at the last update [m] (NaN: none)
     updates: int = 1
 
@@ -187,7 +188,7 @@ class Tracker:
         pos = self._in_odom(pose, best)
         self.track = Track(self.next_id, best.kind, stamp_s, pos,
                            wrap_angle(pose[2] + best.bearing_rad), best.area_px,
-                           seen=pos.copy())
+                           seen=pos.copy(), seen_base=(best.x_m, best.y_m))
         self.next_id += 1
 
     def _associate(self, t: Track, stamp_s: float, pose,
@@ -231,6 +232,7 @@ class Tracker:
         t.innovation_m = float(np.hypot(*(z - pred))) if t.has_position and \
             np.all(np.isfinite(z)) and np.all(np.isfinite(pred)) else math.nan
         t.seen = np.array(z, dtype=float)
+        t.seen_base = (o.x_m, o.y_m)
         t.t_s = stamp_s
         t.direction_rad = direction
         t.area_px = o.area_px

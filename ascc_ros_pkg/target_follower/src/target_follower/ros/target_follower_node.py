@@ -6,9 +6,10 @@ Subscribes ``target`` (target_follower/Target, the detector's frames), ``scan``
 files remap it, e.g. to ``follower/cmd_vel`` in front of a mux), ``~state``
 (std_msgs/String, latched, on change: following / searching / lost / blocked / stale /
 disabled), ``~followed`` (geometry_msgs/PointStamped, the tracked target predicted to now,
-in the odometry frame) and ``~trail`` (nav_msgs/Path, the target's trail the robot steers
-along, odometry frame, while subscribed). Service ``~enable`` (std_srvs/SetBool;
-``~start_enabled``).
+in the odometry frame), ``~trail`` (nav_msgs/Path, the target's trail the robot steers
+along, odometry frame, while subscribed) and ``~camera_latency`` (std_msgs/Float64 [s], the
+camera latency subtracted from the frames' stamps: target_follower.latency). Service
+``~enable`` (std_srvs/SetBool; ``~start_enabled``).
 
 Callbacks only store the newest input; a timer at ``~rate_hz`` runs the tracker
 (target_follower.tracker: which detection is the followed target, in odom), the safety
@@ -26,7 +27,7 @@ import tf2_ros
 from geometry_msgs.msg import PointStamped, PoseStamped, Twist
 from nav_msgs.msg import Odometry, Path
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import String
+from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool, SetBoolResponse
 
 from ascc_common.params import from_params
@@ -41,6 +42,7 @@ from target_follower.follower import (
     SafetySector,
 )
 from target_follower.following import OdomHistory, TargetFollowerParams, observation_from_detection
+from target_follower.latency import LatencyEstimator
 from target_follower.msg import Target
 from target_follower.tracker import Tracker
 from target_follower.trail import Trail
@@ -57,7 +59,8 @@ class TargetFollowerNode:
         self.tracker = Tracker(p.tracker)
         self.trail = Trail(p.trail)
         self.trail_track_id = None
-        self.odom = OdomHistory(p.odom_history_s)
+        self.odom = OdomHistory(p.odom_keep_s())
+        self.latency = LatencyEstimator(p.latency)
         self.lock = threading.Lock()
         self.enabled = p.start_enabled
         self.target_msg = None  # newest Target, not yet given to the tracker
@@ -77,6 +80,7 @@ class TargetFollowerNode:
         self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
         self.point_pub = rospy.Publisher("~followed", PointStamped, queue_size=1)
         self.trail_pub = rospy.Publisher("~trail", Path, queue_size=1)
+        self.latency_pub = rospy.Publisher("~camera_latency", Float64, queue_size=1)
         rospy.Subscriber("target", Target, self.on_target, queue_size=1)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
         rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=10)
@@ -172,6 +176,7 @@ class TargetFollowerNode:
         self.follower.reset()
         self.tracker.reset()
         self.trail.clear()
+        self.latency.reset_track()
         self.odom.clear()
         self.target_msg = None
         self.target_stamp = self.scan_stamp = None
@@ -202,19 +207,24 @@ class TargetFollowerNode:
             else:
                 observations.append(obs)
         t = stamp.to_sec()
-        pose = self.odom.pose_at(t)
+        taken = t - self.latency.latency_s  # when the frame was exposed (latency.py)
+        pose = self.odom.pose_at(taken)
         if pose is None:
             rospy.logwarn_throttle(WARN_PERIOD_S, "target_follower: no odometry on %s yet; "
                                    "tracking as if the robot stood still"
                                    % rospy.resolve_name("odom"))
             pose = (0.0, 0.0, 0.0)
-        track = self.tracker.update(t, pose, observations)
-        if track is not None and track.has_position and track.t_s == t:  # seen now
+        track = self.tracker.update(taken, pose, observations)
+        if track is not None and track.has_position and track.t_s == taken:  # seen now
             if track.id != self.trail_track_id:  # a new track: joins the trail or not
                 self.trail.restart(track.seen)
                 self.trail_track_id = track.id
+                self.latency.reset_track()
             else:
                 self.trail.add(track.seen, track.innovation_m)
+            self.latency.add(t, track.seen_base, np.asarray(self.odom.stamps),
+                             np.asarray(self.odom.poses))
+            self.latency_pub.publish(Float64(data=self.latency.latency_s))
         self.target_stamp = t if self.target_stamp is None else max(self.target_stamp, t)
 
     def _take_scan(self, now):
