@@ -11,13 +11,17 @@ measured position is more than ``--bad-m`` from the person's true position (what
 make a bad trail point) and the trail points farther than that from the person's path.
 
     python ascc_ros_pkg/ascc_eval/scripts/plot_follow_run.py RUN.bag [--t0 S --t1 S]
-        [--out PNG] [--title TEXT] [--bad-m 0.25] [--fixture JSON]
+        [--out PNG] [--title TEXT] [--bad-m 0.25] [--fixture JSON] [--replay-latency]
 
 The bearings are also compared with the truth to measure the camera's latency (the delay
 from the frame's exposure to its stamp that best explains the bearing errors). ``--fixture``
 writes the window's data for a replay test (target_follower/test/data): the followed
 target's measured positions (stamp, base_link), the odometry at 20 Hz, the person's true
-path in the odom frame and the latency measured on the truth.
+path in the odom frame and the latency measured on the truth. ``--replay-latency`` replays
+the recorded detections and odometry through target_follower's latency estimate (open
+loop: the robot's recorded motion) and prints how far the detections, placed at the true
+pose of stamp - latency, are from the person's true path, with the latency at 0 and
+estimated (samples after the first 20 s).
 """
 import argparse
 import json
@@ -152,6 +156,44 @@ def odom_from_map(run, t, xy):
     return base_to_map(od[None, :], local)[0]
 
 
+def distance_to_path(points, path):
+    """Distance [m] of each point to the polyline ``path``."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    ab2 = np.maximum((ab ** 2).sum(axis=1), 1e-12)
+    out = np.empty(len(points))
+    for i, p in enumerate(points):
+        u = np.clip(((p - a) * ab).sum(axis=1) / ab2, 0.0, 1.0)
+        out[i] = np.min(np.hypot(*(a + u[:, None] * ab - p).T))
+    return out
+
+
+def replay_latency(run, gate_m=0.25, skip_s=20.0):
+    """Print the open-loop replay of the latency estimate (module doc)."""
+    from target_follower.latency import LatencyEstimator, LatencyParams
+    tg, od, tr, pp = run["targets"], run["odom"], run["truth"], run["person"]
+    tg = tg[np.isfinite(tg[:, 1])]
+    est = LatencyEstimator(LatencyParams())
+    keep = LatencyParams().latency_window_s + LatencyParams().max_latency_s + 1.0
+    lat = []
+    for row in tg:
+        m = (od[:, 0] <= row[0] + 0.05) & (od[:, 0] >= row[0] - keep)
+        lat.append(est.latency_s)  # the estimate when the frame is placed
+        est.add(row[0], row[1:3], od[m, 0], od[m, 1:4])
+    lat = np.array(lat)
+    sel = tg[:, 0] > tg[0, 0] + skip_s
+    print("detections %d (%.1f Hz); latency estimate after %.0f s: median %.2f s, "
+          "5-95 %% %.2f-%.2f s" % (len(tg), len(tg) / (tg[-1, 0] - tg[0, 0]), skip_s,
+                                   np.median(lat[sel]), np.percentile(lat[sel], 5),
+                                   np.percentile(lat[sel], 95)))
+    for name, delay in (("latency 0", np.zeros(len(tg))), ("estimated", lat)):
+        xy = base_to_map(interp_pose(tr, tg[:, 0] - delay), tg[:, 1:3])
+        d = distance_to_path(xy[sel], pp[:, 1:3])
+        print("  %-10s distance from the person's path: mean %.3f m, p95 %.3f m, "
+              "beyond %.2f m: %.1f %%" % (name, d.mean(), np.percentile(d, 95), gate_m,
+                                          100.0 * np.mean(d > gate_m)))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("bag")
@@ -161,8 +203,12 @@ def main(argv=None):
     ap.add_argument("--title", default="")
     ap.add_argument("--bad-m", type=float, default=0.25)
     ap.add_argument("--fixture", default="")
+    ap.add_argument("--replay-latency", action="store_true")
     args = ap.parse_args(argv)
     run = load(args.bag)
+    if args.replay_latency:
+        replay_latency(run)
+        return 0
     if args.fixture:
         write_fixture(run, args.fixture, args.t0, args.t1, args.bag)
         print("wrote", args.fixture)
