@@ -4,12 +4,13 @@ A camera frame is stamped when its first byte reaches ``q24_camera`` (issue 21; 
 camera sends no capture time), but it was exposed earlier: exposure, read-out, JPEG
 encoding and the network take 0.1-0.3 s on an IP camera (the simulated Q24: rendering and
 encoding, 0.16 s at a load average of 7 on two cores and 0.3-1.0 s under heavier load,
-measured against the ground truth: docs/results/target_follower.md). The follower places each detection in odom at
-the robot's pose when the frame was taken; at the stamp instead, a robot turning at w
-rad/s puts a target at range r off by about ``w * latency * r`` sideways (0.5 rad/s,
-0.3 s, 1.5 m: 0.23 m). Those false sideways jumps come back as the robot turns the other
-way, the trail and the steering follow them, the robot weaves and falls back
-(held-out apartment, seed 1: 33 % of the straight samples out of the +-0.3 m band).
+measured against the ground truth: docs/results/target_follower.md). The follower places
+each detection in odom at the robot's pose when the frame was taken; at the stamp instead,
+a robot turning at w rad/s puts a target at range r off by about ``w * latency * r``
+sideways (0.5 rad/s, 0.3 s, 1.5 m: 0.23 m). Those false sideways jumps come back as the
+robot turns the other way, the trail and the steering follow them, the robot weaves and
+falls back (held-out apartment, seed 1: 33 % of the straight samples out of the +-0.3 m
+band).
 
 The latency is not a constant of the camera (it grows with the load of the machine that
 encodes and decodes), so it is estimated, continuously, from what the follower already
