@@ -123,6 +123,18 @@ class BrowserSimTest(unittest.TestCase):
         from selenium.webdriver.common.action_chains import ActionChains
         ActionChains(self.browser).release().perform()
 
+    def save_page(self, path):
+        """The documentation's screenshot: the whole page, taken when a fresh frame is shown
+        (up to 5 s; a stale one is saved as it is, the page's own state)."""
+        height = int(self.js("return document.documentElement.scrollHeight"))
+        self.browser.set_window_size(1280, height + 140)  # the window's chrome is not page
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline:
+            if "STALE" not in self.js("return document.getElementById('age').textContent"):
+                break
+            time.sleep(0.05)
+        self.browser.save_screenshot(path)
+
     # -- cases -----------------------------------------------------------------------
     def test_1_video_shows_frames(self):
         self.open_page()
@@ -194,7 +206,7 @@ class BrowserSimTest(unittest.TestCase):
                  "move_base driving toward the goal")
         shot = os.environ.get("WEB_CONSOLE_SCREENSHOT")
         if shot:
-            self.browser.save_screenshot(shot)
+            self.save_page(shot)
         self.browser.find_element("id", "cancel").click()
         self.js_wait("const g = window.consoleState.status.goal; "
                      "return g && g.state === 'cancelled'", 20.0, "the goal cancelled")
