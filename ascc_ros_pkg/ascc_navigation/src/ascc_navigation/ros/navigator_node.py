@@ -97,6 +97,7 @@ class NavigatorNode:
                          queue_size=1)
         self.server = GoalServer("move_base", MoveBaseAction, auto_start=False)
         self.server.start()
+        self._status_timer_with_reset()
         self.timer = rospy.Timer(rospy.Duration(self.period), self.on_timer, reset=True)
         rospy.on_shutdown(self.stop_robot)
 
@@ -158,21 +159,27 @@ class NavigatorNode:
         self.last_now = now
         return float(np.clip(dt, 0.0, 2.0 * self.period))
 
-    def _action_server_after_jump(self):
-        """actionlib after the clock went back: the status timer has died (a rospy.Timer
-        without reset raises when time goes back), so move_base/status would come with
-        goal transitions only, and a cancel request stamped in the now future would cancel
-        every new goal stamped before it. Restart the timer, forget that stamp. (The held
-        goals' stamps: GoalServer.)"""
+    def _status_timer_with_reset(self):
+        """actionlib's status timer is a rospy.Timer without reset: when the clock goes back
+        (a bag loop, a restarted simulator) it dies with a ROSTimeMovedBackwardsException
+        traceback, and move_base/status then comes with goal transitions only. Replace it by
+        the same timer with reset=True, which survives the jump."""
         server = self.server.action_server
         with server.lock:
-            server.last_cancel = rospy.Time()
             old = server.status_timer
             if old is not None:
                 server.status_timer = rospy.Timer(old._period, server.publish_status_async,
                                                  reset=True)
         if old is not None:
             old.shutdown()
+
+    def _action_server_after_jump(self):
+        """actionlib after the clock went back: a cancel request stamped in the now future
+        would cancel every new goal stamped before it, so forget that stamp. (The status
+        timer survives: _status_timer_with_reset; the held goals' stamps: GoalServer.)"""
+        server = self.server.action_server
+        with server.lock:
+            server.last_cancel = rospy.Time()
 
     def _apply_map(self):
         msg, self.pending_map = self.pending_map, None
