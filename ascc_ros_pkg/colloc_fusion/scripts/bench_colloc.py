@@ -48,6 +48,8 @@ from colloc_fusion import slam_map
 from colloc_fusion.bench import (
     ROBOTS,
     Placement,
+    beats_counts,
+    best_on_average,
     error_split,
     random_placement,
     replay_errors,
@@ -57,6 +59,7 @@ from colloc_fusion.calibration import Rigid2D
 from colloc_fusion.estimate import TargetEstimate
 from colloc_fusion.fusion import METHODS
 from colloc_fusion.landmarks import calibrate, measure
+from colloc_fusion.win_rates import p_majority, rayleigh_sigma, win_rates
 
 SLAM_MAP_TOPIC = "/slam_map"  # --slam-map: where the saved map is served
 GATE_CHI2 = 13.8  # chi-square 99.9 % for 2 dof: the consistency gate's variants
@@ -221,7 +224,9 @@ def analyse(path, world_path, fit=None):
     fit = fit if fit is not None else calibration(world_path)
     truth = tuple(fit.apply(np.array(rec["truth"], dtype=float)))
     ests = [TargetEstimate(r, x, y, np.array(c), t) for r, t, x, y, c in rec["estimates"]]
-    errs = replay_errors(ests, truth, rec["settle_s"], rec["end_s"], variants=VARIANTS)
+    left = {}
+    errs = replay_errors(ests, truth, rec["settle_s"], rec["end_s"], variants=VARIANTS,
+                         left_out=left)
     node = [math.hypot(x - truth[0], y - truth[1])
             for t, x, y in rec["fused"] if t >= rec["settle_s"]]
     row = {k: (float(np.mean(v)) if v else None) for k, v in errs.items()}
@@ -234,22 +239,52 @@ def analyse(path, world_path, fit=None):
         row["split"] = error_split(ests, rec["amcl"], robots_truth, truth,
                                    rec["settle_s"], rec["end_s"])
     row["samples"] = {k: len(v) for k, v in errs.items()}
+    # the robots each variant left out (fusion steps, and the first reason the status gave)
+    row["left_out"] = {v: {r: [len(why), why[0]] for r, why in d.items()}
+                       for v, d in left.items()}
     return row
 
 
-def summarise(rows):
+def summarise(rows, advance_robot=None, theory_trials=200000):
+    """Over the random placements (trial >= 1; trial 0, the world's placement, apart):
+    each estimate's mean / median / max of the per-trial errors; in how many trials each
+    variant beats the best robot chosen afterwards with the truth, the median robot and
+    ``advance_robot`` (chosen in advance on another set); the ideal fusion's expected
+    shares (colloc_fusion.win_rates) for robots with this set's error statistics; the
+    robots the gate left out."""
     keys = list(ROBOTS) + ["best_robot"] + list(VARIANTS) + ["node_thesis"]
     for r in rows:
         singles = [r[k] for k in ROBOTS if r.get(k) is not None]
         r["best_robot"] = min(singles) if singles else None
+    trial0 = [r for r in rows if r["trial"] == 0]
+    rows = [r for r in rows if r["trial"] > 0]
     summ = {}
     for k in keys:
         vals = [r[k] for r in rows if r.get(k) is not None]
         summ[k] = {"mean_m": float(np.mean(vals)) if vals else None,
+                   "median_m": float(np.median(vals)) if vals else None,
                    "max_m": float(np.max(vals)) if vals else None, "trials": len(vals)}
-    for m in VARIANTS:
-        both = [r for r in rows if r.get(m) is not None and r["best_robot"] is not None]
-        summ[m]["beats_best_robot"] = sum(r[m] < r["best_robot"] for r in both)
+    summ["best_on_average_here"] = best_on_average(rows) if rows else None
+    summ["advance_robot"] = advance_robot
+    summ["beats"] = beats_counts(rows, list(VARIANTS) + ["node_thesis"],
+                                 advance_robot=advance_robot)
+    if rows:  # what an ideal fusion could do with robots like these (Gaussian, unbiased)
+        sig = {r: rayleigh_sigma([row[r] for row in rows if row.get(r) is not None])
+               for r in ROBOTS}
+        th = win_rates([sig[r] for r in ROBOTS], trials=theory_trials)
+        th["p_most"] = {k: p_majority(len(rows), th[k]) for k in
+                        ("per_trial_best", "best_on_average", "median_robot")}
+        summ["theory"] = dict(th, sigma_m=sig, n_trials=len(rows))
+    drops = []  # robots a gated variant left out as inconsistent with the others
+    for r in rows + trial0:
+        for v, d in r.get("left_out", {}).items():
+            for robot, (n, why) in d.items():
+                if "inconsistent" in why:
+                    drops.append({"trial": r["trial"], "variant": v, "robot": robot,
+                                  "steps": n, "of_steps": r["samples"].get(v, 0),
+                                  "robot_error_m": r.get(robot), "reason": why})
+    summ["gate_drops"] = drops
+    summ["trial0"] = {k: trial0[0].get(k) for k in keys} if trial0 else None
     splits = [v for r in rows for v in r.get("split", {}).values()]
     if splits:  # each robot's error: its pose estimate's share and its measurement's
         summ["split"] = {k: {"mean": float(np.mean([v[k] for v in splits])),
@@ -257,6 +292,77 @@ def summarise(rows):
                          for k in splits[0]}
         summ["split"]["robot_trials"] = len(splits)
     return summ
+
+
+def advance_choice(path):
+    """The robot best on average (smallest mean error) on the random placements of the
+    benchmark run whose summary.json is ``path`` (or its directory)."""
+    if os.path.isdir(path):
+        path = os.path.join(path, "summary.json")
+    with open(path) as f:
+        rows = [r for r in json.load(f)["trials"] if not r.get("failed")
+                and r.get("trial", 0) > 0]
+    return best_on_average(rows)
+
+
+def report(summ):
+    """The summary as Markdown."""
+    adv = summ.get("advance_robot")
+    f3 = lambda v: "-" if v is None else "%.3f" % v  # noqa: E731
+    lines = ["Random placements (trial 0 apart). Beats: in how many trials the error is "
+             "below the best robot chosen afterwards with the truth (per trial) / %s / "
+             "the median robot." % ("the robot chosen in advance, %s" % adv if adv else
+                                    "(no --advance-from: no robot chosen in advance)"),
+             "",
+             "| estimate | mean / median / max [m] | trials | beats per-trial best | "
+             "beats %s | beats median robot |" % ("%s (chosen in advance)" % adv if adv else "-"),
+             "|---|---|---|---|---|---|"]
+    for k, v in summ.items():
+        if not isinstance(v, dict) or "mean_m" not in v or v["mean_m"] is None:
+            continue
+        b = summ["beats"].get(k)
+        cells = ["", "", ""]
+        if b:
+            cells = ["%d of %d" % (b["per_trial_best"], b["trials"]),
+                     "%d of %d" % (b["advance_robot"], b["advance_trials"]) if adv else "-",
+                     "%d of %d" % (b["median_robot"], b["trials"])]
+        lines.append("| %s | %s / %s / %s | %d | %s |" % (
+            k, f3(v["mean_m"]), f3(v["median_m"]), f3(v["max_m"]), v["trials"],
+            " | ".join(cells)))
+    lines.append("")
+    lines.append("Best on average on this set (chosen afterwards): %s."
+                 % summ.get("best_on_average_here"))
+    th = summ.get("theory")
+    if th:
+        lines += ["", "Theory (colloc_fusion.win_rates, %d Monte Carlo trials): robots "
+                  "unbiased 2D Gaussian, Rayleigh scales from this set's median errors %s; "
+                  "an ideal fusion is below the per-trial best in %.1f %%, below the robot "
+                  "best on average in %.1f %% (closed form %.1f %%), below the median robot "
+                  "in %.1f %% of trials." % (
+                      th["trials"], ", ".join("%s %.4f m" % kv for kv in
+                                              sorted(th["sigma_m"].items())),
+                      100 * th["per_trial_best"], 100 * th["best_on_average"],
+                      100 * th["closed_form_b"], 100 * th["median_robot"]),
+                  "Chance that the ideal fusion wins in more than half of these %d trials: "
+                  "%.2f / %.2f / %.2f (per-trial best / best on average / median robot)."
+                  % (th["n_trials"], th["p_most"]["per_trial_best"],
+                     th["p_most"]["best_on_average"], th["p_most"]["median_robot"])]
+    if summ.get("gate_drops"):
+        lines += ["", "Left out by the gate (the status's reason):"]
+        lines += ["- trial %d, %s: %s in %d of %d steps (its own error %s m): %s"
+                  % (d["trial"], d["variant"], d["robot"], d["steps"], d["of_steps"],
+                     f3(d["robot_error_m"]), d["reason"]) for d in summ["gate_drops"]]
+    t0 = summ.get("trial0")
+    if t0:
+        lines += ["", "Trial 0 (the world's placement): " + ", ".join(
+            "%s %s" % (k, f3(v)) for k, v in t0.items() if v is not None)]
+    if "split" in summ:
+        sp = summ["split"]
+        lines += ["", "Each robot's error (%d robot-trials), mean / max [m; pose_yaw rad]: "
+                  % sp["robot_trials"] + "; ".join(
+                      "%s %.4f / %.4f" % (k, sp[k]["mean"], sp[k]["max"])
+                      for k in ("total", "pose", "measurement", "pose_xy", "pose_yaw"))]
+    return "\n".join(lines)
 
 
 def main():
@@ -273,6 +379,11 @@ def main():
     ap.add_argument("--slam-map", type=int, metavar="SEED", default=None,
                     help="amcl on a map built by the SLAM stand-in (colloc_fusion.slam_map, "
                     "mapper seed SEED; its own frame, calibrated from the desk corners)")
+    ap.add_argument("--advance-from", metavar="DIR", default=None,
+                    help="another run's --out: its robot best on average is the robot "
+                    "chosen in advance that this set's fusions are compared with")
+    ap.add_argument("--theory-trials", type=int, default=200000,
+                    help="Monte Carlo draws of the theory section")
     ap.add_argument("--reanalyse", action="store_true",
                     help="only recompute the summary from the recordings in --out")
     ap.add_argument("--record", action="store_true", help=argparse.SUPPRESS)
@@ -309,6 +420,10 @@ def main():
         with open(stem + "_placement.json", "w") as f:
             json.dump({"cone": p.cone, "robots": p.robots}, f)
         if args.reanalyse:
+            if not os.path.isfile(stem + ".json") or not recorded(stem + ".json"):
+                print("trial %d: no recording" % k, flush=True)
+                rows.append({"trial": k, "failed": True})
+                continue
             row = analyse(stem + ".json", stem + "_world.yaml", fit)
             row.update(trial=k, cone=p.cone)
             rows.append(row)
@@ -336,7 +451,8 @@ def main():
                                              list(ROBOTS) + list(VARIANTS)
                                              if row.get(m) is not None)), flush=True)
     ok = [r for r in rows if not r.get("failed")]
-    summ = summarise(ok)
+    adv = advance_choice(args.advance_from) if args.advance_from else None
+    summ = summarise(ok, adv, args.theory_trials)
     machine = "%s, %s, %d cores, Python %s" % (platform.node(), platform.processor() or
                                                platform.machine(), os.cpu_count(),
                                                platform.python_version())
@@ -347,21 +463,7 @@ def main():
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump({"summary": summ, "trials": rows, "machine": machine,
                    "args": vars(args)}, f, indent=1)
-    lines = ["| estimate | mean error [m] | max error [m] | trials | beats the best robot |",
-             "|---|---|---|---|---|"]
-    for k, v in summ.items():
-        if k in ("split", "slam_calibration") or v["mean_m"] is None:
-            continue
-        lines.append("| %s | %.3f | %.3f | %d | %s |" % (k, v["mean_m"], v["max_m"],
-                                                        v["trials"],
-                                                        v.get("beats_best_robot", "")))
-    if "split" in summ:
-        sp = summ["split"]
-        lines += ["", "Each robot's error (%d robot-trials), mean / max [m; pose_yaw rad]: "
-                  % sp["robot_trials"] + "; ".join(
-                      "%s %.4f / %.4f" % (k, sp[k]["mean"], sp[k]["max"])
-                      for k in ("total", "pose", "measurement", "pose_xy", "pose_yaw"))]
-    text = "\n".join(lines)
+    text = report(summ)
     with open(os.path.join(args.out, "summary.md"), "w") as f:
         f.write(text + "\n")
     print(text)

@@ -9,6 +9,8 @@ from ascc_sim.world import load_world
 from colloc_fusion.bench import (
     ROBOTS,
     PlacementRules,
+    beats_counts,
+    best_on_average,
     error_split,
     random_placement,
     replay_errors,
@@ -74,3 +76,39 @@ def test_error_split_into_pose_and_measurement_shares():
     # no pose estimate before the target's stamp: nothing to split
     assert error_split(ests, {"robotA": [[7.0, 0.0, 0.1, yaw]]},
                        {"robotA": (0.0, 0.0, 0.0)}, (2.0, 0.0), 4.0, 6.5) == {}
+
+
+def test_replay_reports_the_robot_the_gate_left_out():
+    truth = (1.0, 1.0)
+    ests = []
+    for k in range(10):
+        t = 10.0 + 0.5 * k
+        ests.append(TargetEstimate("robotA", 1.01, 1.0, np.eye(2) * 4e-4, t))
+        ests.append(TargetEstimate("robotB", 0.99, 1.0, np.eye(2) * 4e-4, t))
+        ests.append(TargetEstimate("robotC", 2.4, 1.0, np.eye(2) * 4e-4, t))  # 1.4 m off
+    left = {}
+    out = replay_errors(ests, truth, 10.0, 14.5, variants={
+        "thesis": {"method": "thesis"},
+        "thesis+gate": {"method": "thesis", "gate_chi2": 13.8}}, left_out=left)
+    assert set(left) == {"thesis+gate"} and set(left["thesis+gate"]) == {"robotC"}
+    assert len(left["thesis+gate"]["robotC"]) == len(out["thesis+gate"]) == 10
+    assert "inconsistent" in left["thesis+gate"]["robotC"][0]
+    assert max(out["thesis+gate"]) < 1e-9 and min(out["thesis"]) > 0.4
+
+
+def test_beats_counts_three_readings():
+    rows = [  # per-trial errors [m]
+        {"robotA": 0.010, "robotB": 0.020, "robotC": 0.030, "fused": 0.005},  # all three
+        {"robotA": 0.004, "robotB": 0.020, "robotC": 0.030, "fused": 0.010},  # A, median
+        {"robotA": 0.010, "robotB": 0.002, "robotC": 0.030, "fused": 0.008},  # A, median
+        {"robotA": 0.010, "robotB": 0.005, "robotC": 0.008, "fused": 0.020},  # none
+        {"robotA": None, "robotB": 0.005, "robotC": 0.008, "fused": 0.006},   # median
+        {"robotA": 0.010, "robotB": 0.005, "robotC": 0.008},  # no fusion: not counted
+    ]
+    c = beats_counts(rows, ["fused"], advance_robot="robotA")["fused"]
+    assert c == {"trials": 5, "per_trial_best": 1, "median_robot": 4,
+                 "advance_robot": 2, "advance_trials": 4}
+    assert "advance_robot" not in beats_counts(rows, ["fused"])["fused"]
+    # robotB: mean 0.0095 over 6 trials; robotA 0.0088 over 5; robotC 0.0227
+    assert best_on_average(rows) == "robotA"
+    assert best_on_average(rows, ("robotB", "robotC")) == "robotB"

@@ -118,11 +118,15 @@ def write_placement_world(path: str, placement: Placement, src: str) -> str:
 
 def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float],
                   t0: float, t1: float, period_s: float = 0.5, window_s: float = 1.0,
-                  variants: Optional[Dict[str, dict]] = None) -> Dict[str, List[float]]:
+                  variants: Optional[Dict[str, dict]] = None,
+                  left_out: Optional[Dict[str, Dict[str, List[str]]]] = None
+                  ) -> Dict[str, List[float]]:
     """Errors [m] against ``truth`` between ``t0`` and ``t1`` (sim time [s]): each robot's
     estimates alone (``robotX``), and every variant {name: FusionParams fields} (default:
     each method) fused as the fusion node would every ``period_s`` (each robot's newest
-    estimate within ``window_s``; the estimate is taken as received at its stamp)."""
+    estimate within ``window_s``; the estimate is taken as received at its stamp).
+    ``left_out``, if given, is filled with {variant: {robot: [the reasons, one per fusion
+    step that left it out]}}, as the node's status reports them."""
     variants = variants or {m: {"method": m} for m in METHODS}
     out: Dict[str, List[float]] = {}
     ests = sorted(estimates, key=lambda e: e.stamp_s)
@@ -136,7 +140,10 @@ def replay_errors(estimates: Sequence[TargetEstimate], truth: Tuple[float, float
             while i < len(ests) and ests[i].stamp_s <= t:
                 core.add(ests[i], ests[i].stamp_s)
                 i += 1
-            fused, _ = core.step(float(t))
+            fused, left = core.step(float(t))
+            if left_out is not None:
+                for robot, why in left.items():
+                    left_out.setdefault(name, {}).setdefault(robot, []).append(why)
             if fused is not None:
                 errs.append(math.hypot(fused.x - truth[0], fused.y - truth[1]))
         out[name] = errs
@@ -188,4 +195,45 @@ def error_split(estimates: Sequence[TargetEstimate], poses: Mapping[str, Sequenc
                                                   math.cos(pyaw - true[2]))))
         if acc["total"]:
             out[robot] = {k: float(np.mean(v)) for k, v in acc.items()}
+    return out
+
+
+def best_on_average(rows: Sequence[Mapping], robots: Sequence[str] = ROBOTS) -> str:
+    """The robot whose per-trial error [m] (``row[robot]``) is smallest on average over
+    ``rows`` (trials it missed are left out of its mean)."""
+    means = {}
+    for r in robots:
+        vals = [row[r] for row in rows if row.get(r) is not None]
+        if vals:
+            means[r] = float(np.mean(vals))
+    if not means:
+        raise ValueError("no robot's error in any trial")
+    return min(means, key=means.get)
+
+
+def beats_counts(rows: Sequence[Mapping], methods: Sequence[str],
+                 robots: Sequence[str] = ROBOTS, advance_robot: Optional[str] = None
+                 ) -> Dict[str, Dict[str, int]]:
+    """For each method, in how many trials (rows: {name: per-trial error [m]}) its error
+    is below ``per_trial_best`` (the smallest of the robots' errors in that trial: the
+    robot chosen afterwards with the truth), ``median_robot`` (the middle one) and, with
+    ``advance_robot`` (a robot chosen in advance, e.g. the best on average on another
+    set), ``advance_robot``; ``trials``: the trials with that method's error and at
+    least one robot's (and ``advance_trials``: those that also have advance_robot's)."""
+    out: Dict[str, Dict[str, int]] = {}
+    for m in methods:
+        c = {"trials": 0, "per_trial_best": 0, "median_robot": 0}
+        if advance_robot is not None:
+            c.update(advance_robot=0, advance_trials=0)
+        for row in rows:
+            singles = [row[r] for r in robots if row.get(r) is not None]
+            if row.get(m) is None or not singles:
+                continue
+            c["trials"] += 1
+            c["per_trial_best"] += int(row[m] < min(singles))
+            c["median_robot"] += int(row[m] < float(np.median(singles)))
+            if advance_robot is not None and row.get(advance_robot) is not None:
+                c["advance_trials"] += 1
+                c["advance_robot"] += int(row[m] < row[advance_robot])
+        out[m] = c
     return out
