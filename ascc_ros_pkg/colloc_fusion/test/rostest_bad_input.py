@@ -7,7 +7,9 @@ first-order covariance; a pose in the wrong frame, a NaN pose and a Target in th
 frame are dropped with a warning naming the robot. fusion (robotA, robotB): robotB's NaN
 covariance, zero variance, wrong frame and future stamps are refused with a warning
 naming robotB, robotA alone is fused meanwhile, and no fused value is ever NaN; the
-warnings are throttled.
+warnings are throttled. gated/fusion (robotA, robotC, robotD, gate_chi2 13.8): robotD
+1.4 m off the two others (as a robot whose amcl converged in the wrong place) is left
+out, its status and a warning name it, and A and C are fused.
 """
 import json
 import math
@@ -63,11 +65,18 @@ class BadInputTest(unittest.TestCase):
                                     queue_size=5)
         cls.est_b = rospy.Publisher("robotB/target_estimate", PoseWithCovarianceStamped,
                                     queue_size=5)
+        cls.est_c = rospy.Publisher("robotC/target_estimate", PoseWithCovarianceStamped,
+                                    queue_size=5)
+        cls.est_d = rospy.Publisher("robotD/target_estimate", PoseWithCovarianceStamped,
+                                    queue_size=5)
+        cls.gated_status = Latest("gated/fused_target/status", String, keep_all=True)
+        cls.gated = Latest("gated/fused_target", PoseWithCovarianceStamped)
         cls.estimate = Latest("robotA/target_estimate", PoseWithCovarianceStamped)
         cls.status = Latest("fused_target/status", String, keep_all=True)
         cls.fused = Latest("fused_target", PoseWithCovarianceStamped, keep_all=True)
         cls.log.wait_for_connection()
-        for pub in (cls.amcl, cls.target, cls.est_a, cls.est_b):
+        for pub in (cls.amcl, cls.target, cls.est_a, cls.est_b, cls.est_c,
+                    cls.est_d):
             wait_for(lambda p=pub: p.get_num_connections() > 0, 30.0, pub.resolved_name)
 
     def send_target_until(self, condition, what):
@@ -129,6 +138,29 @@ class BadInputTest(unittest.TestCase):
                                          contains=("robotB", "finite"))
         self.assertEqual(len(nan_warnings), 1)
 
+    def test_4_gate_leaves_out_a_robot_far_off(self):
+        cov = (4e-4, 4e-4, 1e6)  # 2 cm standard deviations, as amcl's refined clouds
+        n0 = self.gated_status.count
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 2.0:
+            self.est_a.publish(pose_msg("map", 1.0, 1.0, cov=cov))
+            self.est_c.publish(pose_msg("map", 1.03, 1.0, cov=cov))
+            self.est_d.publish(pose_msg("map", 2.4, 1.0, cov=cov))
+            time.sleep(0.1)
+        # taken now, within the window (later the estimates go stale)
+        statuses = [json.loads(m.data) for m in self.gated_status.all[n0 + 3:]]
+        fused = self.gated.msg
+        self.log.wait_for(10.0, node="/gated/fusion", level="warn",
+                          contains=("robotD", "inconsistent"))
+        self.assertTrue(statuses)
+        for s in statuses:
+            self.assertEqual(s["robots"], ["robotA", "robotC"], s)
+            self.assertIn("inconsistent", s["left_out"]["robotD"])
+            self.assertNotIn("robotA", s["left_out"])
+            self.assertNotIn("robotC", s["left_out"])
+        p = fused.pose.pose.position
+        self.assertAlmostEqual(p.x, 1.015, places=6)
+        self.assertAlmostEqual(p.y, 1.0, places=6)
 
 if __name__ == "__main__":
     rostest.rosrun("colloc_fusion", "colloc_bad_input", BadInputTest, sys.argv)
