@@ -239,9 +239,14 @@ def analyse(path, world_path, fit=None):
         row["split"] = error_split(ests, rec["amcl"], robots_truth, truth,
                                    rec["settle_s"], rec["end_s"])
     row["samples"] = {k: len(v) for k, v in errs.items()}
-    # the robots each variant left out (fusion steps, and the first reason the status gave)
-    row["left_out"] = {v: {r: [len(why), why[0]] for r, why in d.items()}
-                       for v, d in left.items()}
+    # the robots each variant left out: fusion steps in all, of them as inconsistent with
+    # the others (the gate), and the first such reason the status gave (else the first)
+    row["left_out"] = {}
+    for v, d in left.items():
+        row["left_out"][v] = {}
+        for r, why in d.items():
+            gated = [w for w in why if "inconsistent" in w]
+            row["left_out"][v][r] = [len(why), len(gated), (gated or why)[0]]
     return row
 
 
@@ -278,8 +283,8 @@ def summarise(rows, advance_robot=None, theory_trials=200000):
     drops = []  # robots a gated variant left out as inconsistent with the others
     for r in rows + trial0:
         for v, d in r.get("left_out", {}).items():
-            for robot, (n, why) in d.items():
-                if "inconsistent" in why:
+            for robot, (_, n, why) in d.items():
+                if n:
                     drops.append({"trial": r["trial"], "variant": v, "robot": robot,
                                   "steps": n, "of_steps": r["samples"].get(v, 0),
                                   "robot_error_m": r.get(robot), "reason": why})
@@ -330,8 +335,12 @@ def report(summ):
             k, f3(v["mean_m"]), f3(v["median_m"]), f3(v["max_m"]), v["trials"],
             " | ".join(cells)))
     lines.append("")
-    lines.append("Best on average on this set (chosen afterwards): %s."
-                 % summ.get("best_on_average_here"))
+    lines.append("Best on average on this set (chosen afterwards): %s. Against each robot "
+                 "as if fixed in advance (wins of trials): %s." % (
+                     summ.get("best_on_average_here"), "; ".join(
+                         "%s %s" % (m, ", ".join("%s %d/%d" % (r, w, n) for r, (w, n) in
+                                                 summ["beats"][m]["each_robot"].items()))
+                         for m in ("thesis", "thesis+gate", "information+gate"))))
     th = summ.get("theory")
     if th:
         lines += ["", "Theory (colloc_fusion.win_rates, %d Monte Carlo trials): robots "

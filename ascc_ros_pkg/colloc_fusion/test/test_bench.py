@@ -106,8 +106,10 @@ def test_beats_counts_three_readings():
         {"robotA": 0.010, "robotB": 0.005, "robotC": 0.008},  # no fusion: not counted
     ]
     c = beats_counts(rows, ["fused"], advance_robot="robotA")["fused"]
+    each = c.pop("each_robot")
     assert c == {"trials": 5, "per_trial_best": 1, "median_robot": 4,
                  "advance_robot": 2, "advance_trials": 4}
+    assert each == {"robotA": [2, 4], "robotB": [2, 5], "robotC": [4, 5]}
     assert "advance_robot" not in beats_counts(rows, ["fused"])["fused"]
     # robotB: mean 0.0095 over 6 trials; robotA 0.0088 over 5; robotC 0.0227
     assert best_on_average(rows) == "robotA"

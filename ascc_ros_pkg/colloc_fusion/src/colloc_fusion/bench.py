@@ -219,10 +219,12 @@ def beats_counts(rows: Sequence[Mapping], methods: Sequence[str],
     robot chosen afterwards with the truth), ``median_robot`` (the middle one) and, with
     ``advance_robot`` (a robot chosen in advance, e.g. the best on average on another
     set), ``advance_robot``; ``trials``: the trials with that method's error and at
-    least one robot's (and ``advance_trials``: those that also have advance_robot's)."""
+    least one robot's (and ``advance_trials``: those that also have advance_robot's);
+    ``each_robot``: {robot: [wins, trials]} against every robot as if fixed in advance."""
     out: Dict[str, Dict[str, int]] = {}
     for m in methods:
-        c = {"trials": 0, "per_trial_best": 0, "median_robot": 0}
+        c = {"trials": 0, "per_trial_best": 0, "median_robot": 0,
+             "each_robot": {r: [0, 0] for r in robots}}
         if advance_robot is not None:
             c.update(advance_robot=0, advance_trials=0)
         for row in rows:
@@ -232,6 +234,10 @@ def beats_counts(rows: Sequence[Mapping], methods: Sequence[str],
             c["trials"] += 1
             c["per_trial_best"] += int(row[m] < min(singles))
             c["median_robot"] += int(row[m] < float(np.median(singles)))
+            for r in robots:
+                if row.get(r) is not None:
+                    c["each_robot"][r][0] += int(row[m] < row[r])
+                    c["each_robot"][r][1] += 1
             if advance_robot is not None and row.get(advance_robot) is not None:
                 c["advance_trials"] += 1
                 c["advance_robot"] += int(row[m] < row[advance_robot])
