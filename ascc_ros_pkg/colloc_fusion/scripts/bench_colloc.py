@@ -51,6 +51,7 @@ from colloc_fusion.bench import (
     beats_counts,
     best_on_average,
     error_split,
+    pooled_error_correlation,
     random_placement,
     replay_errors,
     write_placement_world,
@@ -239,6 +240,12 @@ def analyse(path, world_path, fit=None):
         row["split"] = error_split(ests, rec["amcl"], robots_truth, truth,
                                    rec["settle_s"], rec["end_s"])
     row["samples"] = {k: len(v) for k, v in errs.items()}
+    # each robot's mean error vector over the recording (its bias in this placement)
+    vec = {}
+    for e in ests:
+        if rec["settle_s"] <= e.stamp_s <= rec["end_s"]:
+            vec.setdefault(e.robot, []).append((e.x - truth[0], e.y - truth[1]))
+    row["error_vector"] = {r: np.mean(v, axis=0).tolist() for r, v in vec.items()}
     # the robots each variant left out: fusion steps in all, of them as inconsistent with
     # the others (the gate), and the first such reason the status gave (else the first)
     row["left_out"] = {}
@@ -280,6 +287,11 @@ def summarise(rows, advance_robot=None, theory_trials=200000):
         th["p_most"] = {k: p_majority(len(rows), th[k]) for k in
                         ("per_trial_best", "best_on_average", "median_robot")}
         summ["theory"] = dict(th, sigma_m=sig, n_trials=len(rows))
+    # the robots' error vectors' correlation, wrong convergences (> 0.3 m) left out
+    vecs = [r["error_vector"] for r in rows if "error_vector" in r and all(
+        math.hypot(*v) <= 0.3 for v in r["error_vector"].values())]
+    summ["error_correlation"] = {"pooled": pooled_error_correlation(vecs),
+                                 "trials": len(vecs)}
     drops = []  # robots a gated variant left out as inconsistent with the others
     for r in rows + trial0:
         for v, d in r.get("left_out", {}).items():
@@ -356,6 +368,11 @@ def report(summ):
                   "%.2f / %.2f / %.2f (per-trial best / best on average / median robot)."
                   % (th["n_trials"], th["p_most"]["per_trial_best"],
                      th["p_most"]["best_on_average"], th["p_most"]["median_robot"])]
+    ec = summ.get("error_correlation") or {}
+    if ec.get("pooled") is not None:
+        lines += ["Correlation of the robots' error vectors (pooled over pairs and axes, "
+                  "%d trials without a robot > 0.3 m off): %.2f (0: independent, as the "
+                  "theory assumes)." % (ec["trials"], ec["pooled"])]
     if summ.get("gate_drops"):
         lines += ["", "Left out by the gate (the status's reason):"]
         lines += ["- trial %d, %s: %s in %d of %d steps (its own error %s m): %s"

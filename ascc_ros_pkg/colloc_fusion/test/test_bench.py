@@ -12,6 +12,7 @@ from colloc_fusion.bench import (
     beats_counts,
     best_on_average,
     error_split,
+    pooled_error_correlation,
     random_placement,
     replay_errors,
 )
@@ -114,3 +115,18 @@ def test_beats_counts_three_readings():
     # robotB: mean 0.0095 over 6 trials; robotA 0.0088 over 5; robotC 0.0227
     assert best_on_average(rows) == "robotA"
     assert best_on_average(rows, ("robotB", "robotC")) == "robotB"
+
+
+def test_pooled_error_correlation():
+    rng = np.random.default_rng(8)
+    indep = [{r: rng.normal(0.0, 0.01, 2) for r in ROBOTS} for _ in range(3000)]
+    assert abs(pooled_error_correlation(indep)) < 0.05
+    shared = []
+    for _ in range(3000):  # a common error of the same size as each robot's own
+        c = rng.normal(0.0, 0.01, 2)
+        shared.append({r: c + rng.normal(0.0, 0.01, 2) for r in ROBOTS})
+    assert pooled_error_correlation(shared) == pytest.approx(0.5, abs=0.05)
+    same = [{r: v for r in ROBOTS} for v in rng.normal(0.0, 0.01, (10, 2))]
+    assert pooled_error_correlation(same) == pytest.approx(1.0)
+    assert pooled_error_correlation(indep[:1]) is None
+    assert pooled_error_correlation([{"robotA": (0.0, 0.0)}] * 5) is None

@@ -243,3 +243,23 @@ def beats_counts(rows: Sequence[Mapping], methods: Sequence[str],
                 c["advance_robot"] += int(row[m] < row[advance_robot])
         out[m] = c
     return out
+
+
+def pooled_error_correlation(vectors: Sequence[Mapping[str, Sequence[float]]],
+                             robots: Sequence[str] = ROBOTS) -> Optional[float]:
+    """How much the robots' errors go together: over trials (each {robot: its mean error
+    vector (x, y) [m]}, trials missing a robot left out), the correlation of the robots'
+    error components pooled over robot pairs and both axes, taking the errors as zero mean
+    (sum e_i . e_j / sqrt(sum |e_i|^2 sum |e_j|^2)). 0: independent (as the fusion
+    assumes); 1: one shared error no fusion removes. None with fewer than 2 trials."""
+    rows = [np.array([v[r] for r in robots], dtype=float) for v in vectors
+            if all(r in v for r in robots)]
+    if len(rows) < 2:
+        return None
+    e = np.array(rows)  # trials x robots x 2
+    num = den = 0.0
+    for i in range(len(robots)):
+        for j in range(i + 1, len(robots)):
+            num += float(np.sum(e[:, i] * e[:, j]))
+            den += math.sqrt(float(np.sum(e[:, i] ** 2)) * float(np.sum(e[:, j] ** 2)))
+    return num / den if den > 0 else None
