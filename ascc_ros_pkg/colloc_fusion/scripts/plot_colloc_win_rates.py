@@ -44,10 +44,14 @@ def main():
     if len(sys.argv) < 3:
         raise SystemExit(__doc__)
     out, runs = sys.argv[1], [a.split("=", 1) for a in sys.argv[2:]]
-    fig, axes = plt.subplots(1, len(runs), figsize=(5.2 * len(runs), 4.4), sharey=True,
-                             squeeze=False)
+    ncol = min(2, len(runs))
+    nrow = (len(runs) + ncol - 1) // ncol
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.6 * ncol, 3.9 * nrow + 0.5),
+                             sharey=True, squeeze=False)
+    for ax in axes.flat[len(runs):]:
+        ax.set_visible(False)
     width = 0.8 / len(METHODS)
-    for ax, (label, d) in zip(axes[0], runs):
+    for ax, (label, d) in zip(axes.flat, runs):
         with open(os.path.join(d, "summary.json")) as f:
             summ = json.load(f)["summary"]
         th = summ.get("theory", {})
@@ -74,9 +78,11 @@ def main():
         adv = summ.get("advance_robot") or "-"
         ax.set_title("%s (%d trials; in advance: %s)" % (label, n_trials, adv), fontsize=9)
         ax.grid(True, axis="y", alpha=0.3)
-    axes[0][0].set_ylabel("share of trials the fusion's error is below")
-    axes[0][-1].legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
+    for row in axes:
+        row[0].set_ylabel("share of trials the fusion's\nerror is below")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     fig.savefig(out, dpi=90)
     print(out)
 
