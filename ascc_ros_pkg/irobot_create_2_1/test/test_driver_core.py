@@ -223,3 +223,29 @@ def test_warning_kind():
     assert core.set_twist(2.0, 0.0, now=0.0) and core.warning_kind == "saturated"
     assert core.set_twist(math.nan, 0.0, now=0.0) and core.warning_kind == "rejected"
     assert core.set_wheels(0.1, 0.1, now=0.0) is None and core.warning_kind is None
+
+
+def test_frame_bytes_is_the_length_of_a_stream_frame():
+    from irobot_create_2_1.models import CREATE_2
+    assert CreateDriverCore(wheel_base_m=B).frame_bytes == len(frame()) == 56
+    c2 = {pid: 0 for pid in oi.PACKETS}
+    assert CreateDriverCore(robot=CREATE_2).frame_bytes == len(
+        oi.frame_stream_packets([100], c2))
+
+
+def test_event_key_changes_with_a_bump_not_with_odometry():
+    core = CreateDriverCore(wheel_base_m=B)
+    core.on_bytes(frame(10, 0), now=0.0)
+    key = core.event_key()
+    core.on_bytes(frame(20, 3), now=0.015)   # moving: odometry and angle change
+    assert core.event_key() == key
+    core.on_bytes(frame(0, 0, bumps=oi.BUMP_LEFT), now=0.03)
+    assert core.event_key() != key
+
+
+@pytest.mark.parametrize("theta", [0.0, 3.0, -3.0, math.pi, -math.pi, 7.5, -7.5, 1e3,
+                                   -1e3, 2 * math.pi, 1e-17])
+def test_scalar_wrap_matches_the_shared_wrap_angle(theta):
+    from ascc_common.pose2d import wrap_angle
+    from irobot_create_2_1.odometry import wrap
+    assert wrap(theta) == wrap_angle(theta)

@@ -98,3 +98,21 @@ def test_a_port_closed_under_a_write_is_a_failure_not_a_crash():
     finally:
         os.close(master)
         os.close(slave)
+
+
+def test_read_waits_for_min_bytes_within_the_timeout():
+    master, slave, path = make_pty()
+    try:
+        link = SerialLink(path, read_timeout_s=0.5)
+        assert link.ensure_open()
+        os.write(master, b"abc")
+        got = [link.read(min_bytes=6)]
+        os.write(master, b"def")              # arrives after the first read timed out
+        got.append(link.read(min_bytes=3))
+        assert got == [b"abc", b"def"]        # the timeout returns what came
+        os.write(master, b"0123456789")
+        assert link.read(max_bytes=4, min_bytes=8) == b"0123"  # never more than max
+        link.close()
+    finally:
+        os.close(master)
+        os.close(slave)

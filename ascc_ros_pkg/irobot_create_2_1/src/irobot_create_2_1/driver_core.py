@@ -11,7 +11,7 @@ from . import kinematics, protocol
 from .model_check import MISMATCH, ModelCheck
 from .models import CREATE_1, EncoderOdometry, RobotModel
 from .odometry import Odometry
-from .sensor_state import hazards, increments_si
+from .sensor_state import EVENT_PACKETS, hazards, increments_si
 
 #: Packets the Create 1 driver streams: group 6 = every packet 7..42 (52 data bytes per
 #: frame); the Create 2's are ``models.CREATE_2.stream_packets`` (group 100, 7..58).
@@ -77,8 +77,15 @@ class DriverParams:
     cmd_timeout_s: float = param(0.5, "[s] no command for this long -> wheels stopped",
                                  gt=0.0)
     cmd_rate_hz: float = param(20.0, "[Hz] wheel commands are (re)sent at this rate")
-    publish_rate_hz: float = param(30.0, "[Hz] cap on odom/TF/sensorPacket/hazards")
+    publish_rate_hz: float = param(30.0, "[Hz] cap on odom/TF")
+    sensor_rate_hz: float = param(10.0, "[Hz] cap on sensorPacket/hazards/light_bumper; a "
+                                  "change of a bumper, wheel-drop, cliff, virtual-wall, "
+                                  "button, charger or light-bumper bit goes out at once",
+                                  gt=0.0)
     sensor_timeout_s: float = param(1.0, "[s] no stream frame for this long -> restart it")
+    frames_per_read: int = param(2, "stream frames (15 ms each) the reader waits for before "
+                                 "it parses, runs the watchdog and publishes; 1: every frame",
+                                 ge=1, le=16)
     wheel_base_m: float = param(0.0, "[m] wheel separation; 0: the model's (0.258 / 0.235)",
                                 ge=0.0)
     max_wheel_speed_m_s: float = param(0.5, "[m/s] per-wheel limit")
@@ -172,6 +179,18 @@ class CreateDriverCore:
         return mode if self.robot.encoder_odometry else protocol.demo(255) + mode
 
     # --- sensors --------------------------------------------------------------------
+    @property
+    def frame_bytes(self) -> int:
+        """Bytes of one stream frame of this model: header, length, body, checksum."""
+        return 3 + self.robot.stream_body_bytes
+
+    def event_key(self) -> Tuple[int, ...]:
+        """The values of the event packets (``sensor_state.EVENT_PACKETS``: bumpers,
+        wheel drops, cliffs, virtual wall, buttons, charger, light bumper): the node
+        publishes the sensor messages at once when this changes, at its rate otherwise."""
+        get = self.values.get
+        return tuple(get(pid, -1) for pid in EVENT_PACKETS)
+
     @property
     def mismatch(self) -> bool:
         """The start-up check found another model (``model_check.message`` says why)."""

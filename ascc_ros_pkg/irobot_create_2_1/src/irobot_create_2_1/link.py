@@ -47,16 +47,18 @@ class SerialLink:
         self.last_error = ""
         return True
 
-    def read(self, max_bytes: int = 4096) -> bytes:
-        """Bytes available (waits up to the read timeout for the first); b'' when closed."""
+    def read(self, max_bytes: int = 4096, min_bytes: int = 1) -> bytes:
+        """Bytes available; waits up to the read timeout for ``min_bytes`` of them (returns
+        fewer when it expires, b'' when nothing came or the port is closed)."""
         if self._ser is None:
             return b""
         try:
-            first = self._ser.read(1)
+            first = self._ser.read(max(1, min(min_bytes, max_bytes)))
             if not first:
                 return b""
             waiting = self._ser.in_waiting
-            return first + (self._ser.read(min(waiting, max_bytes)) if waiting else b"")
+            more = min(waiting, max_bytes - len(first))
+            return first + (self._ser.read(more) if more > 0 else b"")
         except (serial.SerialException, OSError, TypeError) as exc:
             # pyserial raises TypeError from inside read() when the fd vanished
             self._fail("read from %s failed: %s" % (self.port, exc))

@@ -9,6 +9,11 @@ from . import protocol as oi
 CHARGING_STATES = ("not charging", "reconditioning charging", "full charging",
                    "trickle charging", "waiting", "charging fault condition")
 
+#: Packets whose changes the driver publishes at once (not only at ``~sensor_rate_hz``):
+#: bumps and wheel drops (7), cliffs (9..12), virtual wall (13), buttons (18), charging
+#: sources (34), light bumper (45, Create 2). Not wall (8): it flickers along a wall.
+EVENT_PACKETS = (7, 9, 10, 11, 12, 13, 18, 34, 45)
+
 
 def brown_fields(values: Mapping[int, int]) -> Dict[str, object]:
     """Fields of irobot_create_2_1/SensorPacket (Brown's names and raw units) from the

@@ -21,14 +21,14 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
 from ascc_common.params import from_params
-from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
+from ascc_common.pose2d import quaternion_from_yaw
 from ascc_common.throttle import Throttle
 from irobot_create_2_1 import protocol, sensor_state
 from irobot_create_2_1.driver_core import CreateDriverCore, DriverParams
 from irobot_create_2_1.link import SerialLink
 from irobot_create_2_1.models import model as robot_model
 from irobot_create_2_1.msg import Hazards, LightBumper, SensorPacket
-from irobot_create_2_1.odometry import twist_covariance
+from irobot_create_2_1.odometry import twist_covariance, wrap
 from irobot_create_2_1.srv import (
     Brake,
     BrakeResponse,
@@ -65,10 +65,24 @@ class CreateDriverNode:
             robot=robot_model(p.robot_model), baud=p.baud,
             light_bump_speed_m_s=p.light_bump_speed_m_s, stuck_after_s=p.stuck_after_s)
         self.create2 = self.core.robot.encoder_odometry
-        self.link = SerialLink(self.port, self.core.baud)
+        # The reader asks for frames_per_read frames at once (pyserial waits for them in
+        # one call): fewer wake-ups of the Python thread than one per 15 ms frame. Its
+        # timeout bounds the wait when frames are late or missing; the loop also runs
+        # the command timer, so it must come round.
+        self.read_bytes = p.frames_per_read * self.core.frame_bytes
+        self.link = SerialLink(self.port, self.core.baud, read_timeout_s=(
+            p.frames_per_read * protocol.STREAM_PERIOD_S + 0.01))
         self.lock = threading.Lock()
-        self.publish_period = rospy.Duration(1.0 / max(p.publish_rate_hz, 1e-3))
-        self.last_publish = None
+        # Times are ROS time in float seconds: rospy.Time arithmetic costs microseconds
+        # per operation, at the stream's 66.7 Hz that showed in the node's CPU share.
+        self.publish_period_s = 1.0 / max(p.publish_rate_hz, 1e-3)
+        self.sensor_period_s = 1.0 / p.sensor_rate_hz
+        self.cmd_period_s = 1.0 / max(p.cmd_rate_hz, 1e-3)
+        self.last_publish = None  # stamp [s] of the last odom message
+        self.last_sensor_publish = None  # stamp [s] of the last sensorPacket
+        self.event_key = None  # core.event_key() in the last sensorPacket
+        self.next_cmd = None  # when the command timer is due next [s, ROS time]
+        self.next_slow = None  # when the once-a-second work is due next
         self.last_pose = None  # (time, x, y, theta) of the last odom message
         self.last_init = -math.inf
         self.stopping = False  # set by shutdown(): no more commands, no reopening
@@ -86,6 +100,10 @@ class CreateDriverNode:
         rospy.Subscriber("cmd_vel", Twist, self.on_cmd_vel, queue_size=1)
         self._services()
 
+        if not rospy.has_param("~diagnostic_period"):
+            # The updater re-reads this parameter with get_param_cached, which caches only
+            # parameters that exist: absent, it cost one master call per update.
+            rospy.set_param("~diagnostic_period", 1.0)
         self.diag = diagnostic_updater.Updater()
         self.diag.setHardwareID("iRobot %s @ %s" % (
             "Create 2" if self.create2 else "Create", self.port))
@@ -96,10 +114,10 @@ class CreateDriverNode:
             self.diag.add("motors", self.diag_motors)
 
         rospy.on_shutdown(self.shutdown)
+        # One thread does the reading, the command timer and the once-a-second work (no
+        # rospy.Timer: under simulated time each one wakes on every /clock message).
         self.reader = threading.Thread(target=self.read_loop, name="create_reader", daemon=True)
         self.reader.start()
-        rospy.Timer(rospy.Duration(1.0 / p.cmd_rate_hz), self.on_cmd_timer)
-        rospy.Timer(rospy.Duration(1.0), self.on_slow_timer)
         rospy.loginfo("create driver: %s on port %s at %d baud, mode %s, cmd_timeout_s %.2f",
                       self.core.robot.name, self.port, self.core.baud, self.core.mode,
                       self.core.cmd_timeout_s)
@@ -145,6 +163,10 @@ class CreateDriverNode:
     def read_loop(self):
         was_open = False
         while not rospy.is_shutdown():
+            try:
+                self.periodic(rospy.get_time())
+            except rospy.ROSException:
+                return  # shutting down
             with self.lock:
                 if self.stopping:
                     return  # shutdown() closes the port once this thread is gone
@@ -162,11 +184,13 @@ class CreateDriverNode:
                                        % (self.port, self.link.last_error))
                 time.sleep(0.05)
                 continue
-            data = self.link.read()  # blocks up to the read timeout, outside the lock
+            # Blocks up to the read timeout, outside the lock: the loop comes round at
+            # least that often, so the command timer keeps its mean period.
+            data = self.link.read(min_bytes=self.read_bytes)
             if not data:
                 continue
             try:
-                now = rospy.Time.now()
+                now = rospy.get_time()
             except rospy.ROSException:
                 return  # shutting down
             try:
@@ -178,17 +202,33 @@ class CreateDriverNode:
                                       "processed: %s: %s" % (len(data), self.port,
                                                              type(exc).__name__, exc))
 
+    def periodic(self, now):
+        """The command timer (every ``cmd_period_s``) and the once-a-second work, when
+        due at ``now`` [s, ROS time]; a clock that went back restarts both."""
+        if self.next_cmd is None or now >= self.next_cmd or \
+                now < self.next_cmd - 2.0 * self.cmd_period_s:
+            # Due times step by the period (not from now), so that a loop coming round
+            # every 30 ms keeps the timer's 20 Hz on average.
+            late = self.next_cmd is None or now - self.next_cmd > self.cmd_period_s \
+                or now < self.next_cmd - 2.0 * self.cmd_period_s
+            self.next_cmd = (now if late else self.next_cmd) + self.cmd_period_s
+            self.send_wheels(lambda: self.core.command_bytes(now))
+        if self.next_slow is None or now >= self.next_slow or now < self.next_slow - 2.0:
+            self.next_slow = now + 1.0
+            self.on_slow_timer(now)
+
     def handle_bytes(self, data, now):
-        """Parse bytes read from the robot; publish odometry for the frames they complete."""
+        """Parse bytes read at ``now`` [s]; publish odometry for the frames they complete."""
         with self.lock:
-            self.core.on_bytes(data, now.to_sec())
-            poses = list(self.core.frame_poses)  # one entry per completed frame
+            self.core.on_bytes(data, now)
+            poses = self.core.frame_poses  # one entry per completed frame (a new list)
             mismatch = self.core.mismatch and not (self.stopping or self.mismatch_reported)
             self.mismatch_reported |= mismatch
         if poses:
-            # The watchdog also runs at the stream's 15 ms cadence, not only on the
-            # command timer: a stale command stops the wheels within one frame.
-            self.send_wheels(lambda: self.core.watchdog_bytes(now.to_sec()))
+            # The watchdog also runs at the reader's cadence (frames_per_read stream
+            # frames), not only on the command timer: a stale command stops the wheels
+            # within that many 15 ms frames.
+            self.send_wheels(lambda: self.core.watchdog_bytes(now))
         if self.core.mismatch:
             if not mismatch:
                 return  # reported once; the node is shutting down
@@ -202,29 +242,43 @@ class CreateDriverNode:
             # frames still go out as odom/TF at the publish rate, so TF interpolates
             # along the path the robot took.
             for stamp, pose in poses[:-1]:
-                stamp = rospy.Time.from_sec(stamp)
                 if self.last_publish is not None and \
-                        self.last_publish + self.publish_period <= stamp:
+                        self.last_publish + self.publish_period_s <= stamp:
                     self.last_publish = stamp
                     self.publish_odom(stamp, *pose, self.core.odom.pose_covariance())
-            self.maybe_publish(rospy.Time.from_sec(poses[-1][0]))
+            self.maybe_publish(poses[-1][0])
 
     # --- publishing -----------------------------------------------------------------------
     def maybe_publish(self, now):
-        if self.last_publish is not None and now - self.last_publish < self.publish_period:
-            if now >= self.last_publish:
-                return
+        """Odometry and TF at most every ``publish_period_s``; the sensor messages at most
+        every ``sensor_period_s``, or at once when an event packet changed. ``now`` [s]."""
+        if self.last_publish is not None and now < self.last_publish:
             rospy.logwarn("create driver: time jumped back %.3f s; resetting publish timing",
-                          (self.last_publish - now).to_sec())
+                          self.last_publish - now)
             self.last_pose = None
-        self.last_publish = now
+            self.last_publish = self.last_sensor_publish = None
         with self.lock:
-            values = dict(self.core.values)
+            key = self.core.event_key()
+            sensors = (key != self.event_key or self.last_sensor_publish is None
+                       or now - self.last_sensor_publish >= self.sensor_period_s)
+            odom = (self.last_publish is None
+                    or now - self.last_publish >= self.publish_period_s)
+            if not (odom or sensors):
+                return
+            values = dict(self.core.values) if sensors else None
             x, y, theta = self.core.odom.pose
             pose_cov = self.core.odom.pose_covariance()
-        self.publish_odom(now, x, y, theta, pose_cov)
+        stamp = rospy.Time.from_sec(now)
+        if odom:
+            self.last_publish = now
+            self.publish_odom(now, x, y, theta, pose_cov, stamp)
+        if sensors:
+            self.last_sensor_publish, self.event_key = now, key
+            self.publish_sensors(values, stamp)
+
+    def publish_sensors(self, values, stamp):
         packet = SensorPacket(**sensor_state.brown_fields(values))
-        packet.header.stamp = now
+        packet.header.stamp = stamp
         packet.header.frame_id = self.base_frame
         self.packet_pub.publish(packet)
         hz = Hazards(**sensor_state.hazards(values))
@@ -236,9 +290,10 @@ class CreateDriverNode:
             msg.header = packet.header
             self.light_pub.publish(msg)
 
-    def publish_odom(self, now, x, y, theta, pose_cov):
+    def publish_odom(self, now, x, y, theta, pose_cov, stamp=None):
+        """Odometry (and TF) at ``now`` [s] (``stamp``: the same as a rospy.Time)."""
         msg = Odometry()
-        msg.header.stamp = now
+        msg.header.stamp = rospy.Time.from_sec(now) if stamp is None else stamp
         msg.header.frame_id = self.odom_frame
         msg.child_frame_id = self.base_frame
         msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
@@ -246,11 +301,11 @@ class CreateDriverNode:
         msg.pose.covariance = pose_cov
         if self.last_pose is not None:
             t0, x0, y0, th0 = self.last_pose
-            dt = (now - t0).to_sec()
+            dt = now - t0
             if dt > 0:
                 msg.twist.twist.linear.x = ((x - x0) * math.cos(th0)
                                             + (y - y0) * math.sin(th0)) / dt
-                msg.twist.twist.angular.z = wrap_angle(theta - th0) / dt
+                msg.twist.twist.angular.z = wrap(theta - th0) / dt
         msg.twist.covariance = twist_covariance()
         self.last_pose = (now, x, y, theta)
         self.odom_pub.publish(msg)
@@ -270,10 +325,6 @@ class CreateDriverNode:
         if warning:
             self.warn(kind, warning)
 
-    def on_cmd_timer(self, event):
-        now = rospy.get_time()
-        self.send_wheels(lambda: self.core.command_bytes(now))
-
     def send_wheels(self, make_bytes):
         """Write ``make_bytes()`` (a wheel command or None) under the lock, unless
         stopping; warn (throttled) when it was a watchdog stop."""
@@ -289,8 +340,9 @@ class CreateDriverNode:
             self.warn("watchdog", "no cmd_vel for %.2f s, robot stopped"
                       % self.core.cmd_timeout_s)
 
-    def on_slow_timer(self, event):
-        now = rospy.get_time()
+    def on_slow_timer(self, now):
+        """Once a second [ROS time]: stream restart, battery, stuck and corrupt-data
+        warnings, diagnostics."""
         with self.lock:
             stale = (not self.stopping and self.link.is_open
                      and self.core.sensors_stale(now, self.sensor_timeout_s))
@@ -458,7 +510,7 @@ class CreateDriverNode:
             self.core.stop(rospy.get_time())
             self.link.write(protocol.drive_direct(0, 0))
         if self.reader is not threading.current_thread():
-            self.reader.join(timeout=2.0)  # returns within one read timeout (20 ms)
+            self.reader.join(timeout=2.0)  # returns within one read timeout (40 ms)
         with self.lock:
             self.link.close()
 
