@@ -17,6 +17,12 @@ real-time factor (simulated / wall time) and the machine's load average, since o
 shared machine a starved simulator runs slower than asked and every node then does less
 per wall second. Writes OUT/cpu.json (summary and samples) and the run's report.
 
+Also runs `cpu_probe`, a rospy node that does nothing (init_node, spin) on the run's master
+under simulated time: its share is what every rospy node of the run pays for being one
+(its /clock subscription at the simulator's 100 Hz, rospy's own threads), none of which
+exists on the robot, where there is no /clock. A node's own work is its share minus
+about that floor.
+
     rosrun ascc_eval bench_cpu.py [--duration-s 600] [--world corridor] [--rtf 1]
         [--strategy utility] [--seed 0] [--window-s 60] [--warmup-s 20] [--out DIR]
 """
@@ -37,6 +43,8 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
 ROBOT_NODES = (("driver", "driver"), ("mapper", "slam_gmapping"),
                ("navigator", "move_base"), ("explorer", "frontier_explorer"))
 TICK = os.sysconf("SC_CLK_TCK")
+PROBE = "cpu_probe"
+PROBE_CODE = "import rospy; rospy.init_node('%s'); rospy.spin()" % PROBE
 PAGE = os.sysconf("SC_PAGE_SIZE")
 
 
@@ -166,20 +174,31 @@ def main() -> int:
     start = time.time()
     with open(os.path.join(run_dir, "launch.log"), "w") as log:
         proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT)
+        # rospy keeps trying to register until the launch's master is up.
+        probe = subprocess.Popen([sys.executable, "-c", PROBE_CODE, "__name:=" + PROBE],
+                                 env=env, stdout=log, stderr=subprocess.STDOUT)
         deadline = start + 3.0 * args.duration_s + 300.0          # a starved run: give up
         try:
             while proc.poll() is None and time.time() < deadline:
                 nodes = launch_nodes(proc.pid)
+                st = read_stat(probe.pid)
+                if nodes and st is not None:
+                    nodes[PROBE] = st[1:]
                 if nodes:
                     samples.append({"t": time.time() - start, "nodes": nodes})
                 time.sleep(args.period_s)
         finally:
+            probe.send_signal(signal.SIGINT)
             if proc.poll() is None:
                 proc.send_signal(signal.SIGINT)
                 try:
                     proc.wait(timeout=30)
                 except subprocess.TimeoutExpired:
                     proc.kill()
+            try:
+                probe.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                probe.kill()
     wall = time.time() - start
     load1 = os.getloadavg()
     if len(samples) < 3:
@@ -206,7 +225,8 @@ def main() -> int:
                                             "-" if worst is None else "%.1f" % worst,
                                             s["peak_rss_mb"]))
         if name == "robot_stack":
-            print("-- not robot-side:")
+            print("-- not robot-side (%s: an idle rospy node, the floor of every node "
+                  "under simulated time):" % PROBE)
     with open(os.path.join(args.out, "cpu.json"), "w") as f:
         json.dump({"args": vars(args), "wall_s": wall, "sim_s": sim, "rtf": rtf,
                    "load_start": load0, "load_end": load1, "summary": summary,

@@ -8,6 +8,7 @@ Callbacks only store the newest message; the planning runs on a timer.
 
 import functools
 import threading
+import time
 
 import actionlib
 import rospy
@@ -16,6 +17,7 @@ from actionlib.simple_action_client import SimpleGoalState
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
+from rospy.numpy_msg import numpy_msg
 from std_msgs.msg import Float64, String
 from std_srvs.srv import Trigger, TriggerResponse
 from visualization_msgs.msg import MarkerArray
@@ -28,6 +30,7 @@ _OUTCOMES = {GoalStatus.SUCCEEDED: ex.SUCCEEDED, GoalStatus.ABORTED: ex.ABORTED,
              GoalStatus.REJECTED: ex.REJECTED, GoalStatus.PREEMPTED: ex.PREEMPTED,
              GoalStatus.RECALLED: ex.PREEMPTED}
 PROBLEM_WARN_PERIOD_S = 10.0   # each problem status is warned about at most this often
+TICK_POLL_S = 0.05             # [s wall] how often the planning loop looks at the clock
 _PROBLEMS = (ex.WAITING_MAP, ex.WAITING_POSE, ex.WAITING_MOVE_BASE, "empty_map",
              "robot_outside_map", "robot_not_in_free_space")
 
@@ -57,14 +60,37 @@ class ExplorerNode:
         self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
         self.status_pub = rospy.Publisher("~status", String, queue_size=1, latch=True)
         self.marker_pub = rospy.Publisher("~markers", MarkerArray, queue_size=1, latch=True)
-        rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
+        # numpy_msg: the map's cells arrive as one array, not a tuple of a million ints
+        # (rospy's default: ~50 ms per message of a 100 m map).
+        rospy.Subscriber("map", numpy_msg(OccupancyGrid), self._on_map, queue_size=1)
         rospy.Subscriber("slam_gmapping/entropy", Float64, self._on_entropy, queue_size=1)
         rospy.Service("~start", Trigger, self._srv_start)
         rospy.Service("~stop", Trigger, self._srv_stop)
         self._publish_status(ex.IDLE)
         if p.autostart:
             self.ctrl.start()
-        self.timer = rospy.Timer(rospy.Duration(period), self._tick)
+        self.period = period
+        self.thread = threading.Thread(target=self._loop, name="planning", daemon=True)
+        self.thread.start()
+
+    def _loop(self):
+        """_tick every ``period`` [s, ROS time]. Not a rospy.Timer: under simulated time
+        that wakes on every /clock message (100 per simulated second); this loop looks
+        at the clock every TICK_POLL_S of wall time. A clock that went back restarts."""
+        due = None
+        while not rospy.is_shutdown():
+            try:
+                now = rospy.get_time()
+            except rospy.ROSException:
+                return  # shutting down
+            if now > 0.0 and (due is None or now >= due or now < due - 2.0 * self.period):
+                due = now + self.period
+                try:
+                    self._tick(None)
+                except Exception as exc:  # noqa: BLE001 - the loop must survive
+                    rospy.logerr_throttle(10.0, "frontier_explorer: planning failed: %s: %s"
+                                          % (type(exc).__name__, exc))
+            time.sleep(TICK_POLL_S)
 
     # -- callbacks: store only -------------------------------------------------------
     def _on_map(self, msg):
