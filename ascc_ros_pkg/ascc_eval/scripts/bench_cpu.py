@@ -145,6 +145,45 @@ def sim_time_s(run_dir):
         return None
 
 
+def run_and_sample(cmd, env, log_path, start, duration_s, period_s):
+    """Run the launch (and the probe once the simulator is up) and sample its nodes every
+    period_s until it ends; [{"t": s since start, "nodes": {name: (cpu s, rss)}}]."""
+    samples = []
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT)
+        probe = None
+        deadline = start + 3.0 * duration_s + 300.0          # a starved run: give up
+        try:
+            while proc.poll() is None and time.time() < deadline:
+                nodes = launch_nodes(proc.pid)
+                if probe is None and "simulator" in nodes:
+                    # Started with the simulator: roslaunch has set /use_sim_time by then.
+                    probe = subprocess.Popen(
+                        [sys.executable, "-c", PROBE_CODE, "__name:=" + PROBE], env=env,
+                        stdout=log, stderr=subprocess.STDOUT)
+                st = None if probe is None else read_stat(probe.pid)
+                if nodes and st is not None:
+                    nodes[PROBE] = st[1:]
+                if nodes:
+                    samples.append({"t": time.time() - start, "nodes": nodes})
+                time.sleep(period_s)
+        finally:
+            if probe is not None:
+                probe.send_signal(signal.SIGINT)
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+                try:
+                    proc.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+            try:
+                if probe is not None:
+                    probe.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                probe.kill()
+    return samples
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration-s", type=float, default=600.0,
@@ -170,35 +209,9 @@ def main() -> int:
     load0 = os.getloadavg()
     print("%s: %s for %.0f s simulated at rtf %s, load average %.1f %.1f %.1f"
           % (args.world, args.strategy, args.duration_s, args.rtf, *load0))
-    samples = []
     start = time.time()
-    with open(os.path.join(run_dir, "launch.log"), "w") as log:
-        proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT)
-        # rospy keeps trying to register until the launch's master is up.
-        probe = subprocess.Popen([sys.executable, "-c", PROBE_CODE, "__name:=" + PROBE],
-                                 env=env, stdout=log, stderr=subprocess.STDOUT)
-        deadline = start + 3.0 * args.duration_s + 300.0          # a starved run: give up
-        try:
-            while proc.poll() is None and time.time() < deadline:
-                nodes = launch_nodes(proc.pid)
-                st = read_stat(probe.pid)
-                if nodes and st is not None:
-                    nodes[PROBE] = st[1:]
-                if nodes:
-                    samples.append({"t": time.time() - start, "nodes": nodes})
-                time.sleep(args.period_s)
-        finally:
-            probe.send_signal(signal.SIGINT)
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-                try:
-                    proc.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-            try:
-                probe.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                probe.kill()
+    samples = run_and_sample(cmd, env, os.path.join(run_dir, "launch.log"), start,
+                             args.duration_s, args.period_s)
     wall = time.time() - start
     load1 = os.getloadavg()
     if len(samples) < 3:

@@ -1,0 +1,203 @@
+#!/usr/bin/env python3
+"""CPU share of the driver node on the simulator's virtual Create (issue 24: under 2 % of
+one core at a real-time factor of 1).
+
+Starts `ascc_sim`'s sim.launch (--world, real-time factor --rtf, the driver from this
+source tree) on a free master port, an idle rospy node (`cpu_probe`: init_node, spin) on
+the same master, and a `cmd_vel` publisher turning the robot on the spot at --cmd-rate-hz;
+after --warmup-s it samples /proc/<pid>/stat of the driver and the probe for --duration-s
+(wall) and prints each one's CPU time (user + system, all threads) in % of one core. The
+probe's share is the floor every rospy node pays under simulated time (its /clock
+subscription at the simulator's 100 Hz, rospy's threads); on the robot there is no /clock.
+
+With --compare REV, a second simulator on another port runs the driver node of git
+revision REV (its `ros/driver_node.py`, on this tree's other modules) at the same time, so
+both see the same machine load; its share is printed beside.
+
+    python3 ascc_ros_pkg/irobot_create_2_1/scripts/bench_driver_cpu.py [--duration-s 90]
+        [--world corridor] [--rtf 1] [--compare 525e5cb]
+"""
+import argparse
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+TICK = os.sysconf("SC_CLK_TCK")
+HERE = os.path.dirname(os.path.realpath(__file__))
+TOP = os.path.normpath(os.path.join(HERE, "..", "..", ".."))
+PROBE_CODE = "import rospy; rospy.init_node('cpu_probe'); rospy.spin()"
+TWIST_CODE = """import rospy, sys
+from geometry_msgs.msg import Twist
+rospy.init_node('spin_cmd')
+pub = rospy.Publisher('cmd_vel', Twist, queue_size=1)
+msg = Twist(); msg.angular.z = 0.3
+rate = rospy.Rate(float(sys.argv[1]))
+while not rospy.is_shutdown():
+    pub.publish(msg); rate.sleep()
+"""
+OLD_DRIVER_CODE = """import importlib.util, sys
+spec = importlib.util.spec_from_file_location('driver_node_rev', sys.argv[1])
+m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m); m.main()
+"""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
+def env_for(port: int):
+    env = dict(os.environ)
+    env["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
+    if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):
+        env["ROS_IP"] = "127.0.0.1"
+    return env
+
+
+def wait_for_clock(port: int, timeout_s: float = 120.0) -> bool:
+    """Wait until the master on port lists a /clock publisher (the simulator is up and
+    /use_sim_time is set, so rospy nodes started now follow simulated time)."""
+    import rosgraph
+    master = rosgraph.Master("/bench_driver_cpu", master_uri="http://127.0.0.1:%d" % port)
+    deadline = time.time() + timeout_s
+    while time.time() < deadline:
+        try:
+            if any(t == "/clock" for t, _ in master.getSystemState()[0]):
+                return True
+        except Exception:  # noqa: BLE001 - master not up yet
+            pass
+        time.sleep(1.0)
+    return False
+
+
+def cpu_s(pid: int):
+    try:
+        with open("/proc/%d/stat" % pid) as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / TICK
+
+
+def find_driver(root_pid: int):
+    """pid of the `driver` node below a roslaunch process, or None."""
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open("/proc/%s/cmdline" % entry, "rb") as f:
+                args = f.read().split(b"\0")
+            with open("/proc/%s/stat" % entry) as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except OSError:
+            continue
+        if ppid == root_pid and b"__name:=driver" in args:
+            return int(entry)
+    return None
+
+
+def start_sim(port, world, rtf, link_dir, log, drivers=True):
+    return subprocess.Popen(
+        ["roslaunch", "-p", str(port), "ascc_sim", "sim.launch", "world:=" + world,
+         "real_time_factor:=%s" % rtf, "link_dir:=" + link_dir,
+         "drivers:=%s" % ("true" if drivers else "false")]
+        + ([] if drivers else ["wait_for_drivers_s:=0"]),
+        env=env_for(port), stdout=log, stderr=subprocess.STDOUT)
+
+
+def start_runs(args, world, tmp, log, procs):
+    """The simulator with this tree's driver and, with --compare, a second one with REV's
+    driver node: [(label, master port, roslaunch process, driver pid or None)]; None if a
+    simulator did not come up. Every process started is appended to procs."""
+    port = free_port()
+    sim = start_sim(port, world, args.rtf, os.path.join(tmp, "a"), log)
+    procs.append(sim)
+    runs = [("driver (this tree)", port, sim, None)]
+    if not wait_for_clock(port):
+        return None
+    if args.compare:
+        src = subprocess.run(
+            ["git", "-C", TOP, "show", args.compare + ":ascc_ros_pkg/irobot_create_2_1/"
+             "src/irobot_create_2_1/ros/driver_node.py"],
+            check=True, capture_output=True, text=True).stdout
+        path = os.path.join(tmp, "driver_node_rev.py")
+        with open(path, "w") as f:
+            f.write(src)
+        port_b = free_port()
+        sim_b = start_sim(port_b, world, args.rtf, os.path.join(tmp, "b"), log, False)
+        procs.append(sim_b)
+        if not wait_for_clock(port_b):
+            return None
+        old = subprocess.Popen(
+            [sys.executable, "-c", OLD_DRIVER_CODE, path, "__name:=driver",
+             "_port:=" + os.path.join(tmp, "b", "create.pty")],
+            env=env_for(port_b), stdout=log, stderr=subprocess.STDOUT)
+        procs.append(old)
+        runs.append(("driver (%s)" % args.compare, port_b, sim_b, old.pid))
+    return runs
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--duration-s", type=float, default=90.0, help="wall seconds measured")
+    ap.add_argument("--warmup-s", type=float, default=20.0, help="wall seconds before")
+    ap.add_argument("--world", default="corridor", help="ascc_sim world name")
+    ap.add_argument("--rtf", default="1", help="the simulator's real-time factor cap")
+    ap.add_argument("--cmd-rate-hz", type=float, default=10.0)
+    ap.add_argument("--compare", metavar="REV", help="also run REV's driver node alongside")
+    args = ap.parse_args()
+    world = os.path.join(TOP, "ascc_ros_pkg", "ascc_sim", "worlds", args.world + ".yaml")
+    tmp = tempfile.mkdtemp(prefix="bench_driver_cpu_")
+    procs = []
+    log = open(os.path.join(tmp, "log.txt"), "w")
+    try:
+        runs = start_runs(args, world, tmp, log, procs)
+        if runs is None:
+            print("a simulator did not start; see %s" % log.name)
+            return 1
+        probes = []
+        for _, p, _, _ in runs:
+            for code, extra in ((PROBE_CODE, []), (TWIST_CODE, [str(args.cmd_rate_hz)])):
+                procs.append(subprocess.Popen([sys.executable, "-c", code] + extra,
+                                              env=env_for(p), stdout=log,
+                                              stderr=subprocess.STDOUT))
+            probes.append(procs[-2].pid)
+        time.sleep(args.warmup_s)
+        pids = []
+        for (name, _, launch, pid), probe in zip(runs, probes):
+            pid = pid or find_driver(launch.pid)
+            if pid is None:
+                print("no driver process found for %s; see %s" % (name, log.name))
+                return 1
+            pids += [(name, pid), ("cpu_probe beside it", probe)]
+        load0 = os.getloadavg()
+        c0 = [cpu_s(pid) for _, pid in pids]
+        t0 = time.time()
+        time.sleep(args.duration_s)
+        c1 = [cpu_s(pid) for _, pid in pids]
+        wall = time.time() - t0
+        print("%s, rtf %s, %.0f s wall, cmd_vel %.0f Hz, load average %.1f -> %.1f"
+              % (args.world, args.rtf, wall, args.cmd_rate_hz, load0[0], os.getloadavg()[0]))
+        for (name, _), a, b in zip(pids, c0, c1):
+            share = "gone" if a is None or b is None else "%.2f %%" % (100.0 * (b - a) / wall)
+            print("  %-28s %s of one core" % (name, share))
+        return 0
+    finally:
+        for p in reversed(procs):
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        log.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
