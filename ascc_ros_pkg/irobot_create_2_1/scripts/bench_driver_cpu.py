@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """CPU share of the driver node on the simulator's virtual Create (issue 24: under 2 % of
 one core at a real-time factor of 1).
 
