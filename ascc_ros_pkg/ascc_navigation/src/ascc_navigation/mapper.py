@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -147,6 +147,8 @@ class SlamMapper:
     def _reset_state(self) -> None:
         self.slam = RbpfSlam(self.cfg.rbpf, seed=self.seed)
         self.graph = PoseGraph(self.cfg.loop, hit_offset=0.5 * self.cfg.rbpf.delta)
+        self.keyframe_updates: List[int] = []  # the filter update of each keyframe
+        self.graph.trajectory_source = self._keyframe_trajectory
         self.keyframe_odom: Optional[np.ndarray] = None  # odometry at the last keyframe
         self.last_stamp: Optional[float] = None      # newest scan seen [s]
         self.last_odom: Optional[np.ndarray] = None  # odometry at the newest scan seen
@@ -225,11 +227,18 @@ class SlamMapper:
         delta = (np.zeros(3) if self.keyframe_odom is None
                  else relative(self.keyframe_odom, odom_pose))
         self.keyframe_odom = odom_pose
+        self.keyframe_updates.append(self.slam.updates - 1)
         loop = self.graph.add_keyframe(self.slam.best_pose, prepared, delta)
         if loop.status == "closed":
             maps = rebuild_counts(self.slam.new_maps, self.graph.poses, self.graph.scans)
             self.slam.restart(self.graph.poses[-1], maps)
+            self.slam.set_trajectory(np.array(self.keyframe_updates), self.graph.poses)
         return loop
+
+    def _keyframe_trajectory(self) -> np.ndarray:
+        """The best particle's poses at the keyframes (the trajectory its map was built
+        from), for the pose graph."""
+        return self.slam.trajectory(np.array(self.keyframe_updates))
 
     def _prepare(self, scan: ScanInput, mount: LaserMount):
         delta = self.cfg.rbpf.delta

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import Callable, List, Optional, Tuple
 
 import cv2
 import numpy as np
@@ -88,8 +88,19 @@ class LoopClosureConfig:
     match_sigma_m: float = 0.05       # [m] end-point score std
     coarse_points: int = 120          # of them scored in the loop search's coarse grid
     max_points: int = 400             # matched end points per scan (evenly subsampled)
+    # sequential edges: "geometry" = the front end's increment where its scan constrains
+    # it, the odometry's where not (``PoseGraph._geometry_edges``); "isotropic" = the
+    # front end's increment with the fixed stds seq_sigma_*
+    seq_model: str = "geometry"
     seq_sigma_xy: Tuple[float, float] = (0.01, 0.03)     # [m] + [m/m] std of a sequential edge
     seq_sigma_theta: Tuple[float, float] = (0.005, 0.01)  # [rad] + [rad/m]
+    point_sigma_m: float = 0.05       # [m] std of one surface point (scan information)
+    info_points: int = 120            # surface points counted in the scan information
+    # wheel odometry of an increment of length d: std a + b d along the motion, across it
+    # and in heading (the Create's encoders: good in distance, poor in heading)
+    odom_sigma_along: Tuple[float, float] = (0.002, 0.01)   # [m] + [m/m]
+    odom_sigma_cross: Tuple[float, float] = (0.01, 0.05)    # [m] + [m/m]
+    odom_sigma_theta: Tuple[float, float] = (0.01, 0.05)    # [rad] + [rad/m]
     loop_sigma_xy: float = 0.05       # [m] std of a loop edge
     loop_sigma_theta: float = 0.02    # [rad]
 
@@ -275,6 +286,33 @@ def _surface_points(scan_origin: np.ndarray, pts: np.ndarray, hit_offset: float)
     return (scan_origin + rel * scale[:, None]).astype(np.float32)
 
 
+def scan_information(points: np.ndarray, sigma: float, max_points: int,
+                     max_gap_m: float = 0.3) -> np.ndarray:
+    """3x3 information (x, y, theta; the scan's frame) of aligning the surface points
+    ``points`` (base frame, in beam order) point-to-line, as ICP's Fisher information
+    (Censi 2007): sum of J J^T / sigma^2, J = (n_x, n_y, n . perp(p)), n the surface normal
+    from the neighbouring points (points whose neighbours lie further than ``max_gap_m``
+    are left out), over at most ``max_points`` evenly spread points. Halved: an increment
+    between two keyframes carries the errors of both scans. Along a featureless corridor
+    every normal is across it: no information along it."""
+    pts = np.asarray(points, dtype=float)
+    if pts.shape[0] < 3:
+        return np.zeros((3, 3))
+    tangent = pts[2:] - pts[:-2]
+    gap = np.maximum(np.hypot(*(pts[1:-1] - pts[:-2]).T), np.hypot(*(pts[2:] - pts[1:-1]).T))
+    length = np.hypot(tangent[:, 0], tangent[:, 1])
+    ok = (gap <= max_gap_m) & (length > 1e-6)
+    if not ok.any():
+        return np.zeros((3, 3))
+    p = pts[1:-1][ok]
+    n = np.column_stack([-tangent[ok, 1], tangent[ok, 0]]) / length[ok, None]
+    if p.shape[0] > max_points:
+        keep = np.linspace(0, p.shape[0] - 1, max_points).round().astype(np.int64)
+        p, n = p[keep], n[keep]
+    jac = np.column_stack([n, n[:, 0] * -p[:, 1] + n[:, 1] * p[:, 0]])
+    return 0.5 * (jac.T @ jac) / (sigma * sigma)
+
+
 def _compact(scan: PreparedScan) -> PreparedScan:
     """A float32 copy of the parts of a scan the graph needs (hits, match, free polygon)."""
     f = np.float32
@@ -302,6 +340,12 @@ class PoseGraph:
         self.closures = 0
         self.odometry_edges = 0  # sequential edges from odometry alone (nothing to match)
         self._next_check_m = 0.0
+        self._odom = np.zeros((0, 3))            # odometry increment into each node
+        self._odom_info = np.zeros((0, 3, 3))    # its information (previous node's frame)
+        self._scan_info = np.zeros((0, 3, 3))    # each node's scan information (own frame)
+        self._filter_edges: List[int] = []       # edges taken from the filter's increments
+        # the filter's trajectory at the keyframes (``reanchor`` before a loop search), or None
+        self.trajectory_source: Optional[Callable[[], np.ndarray]] = None
 
     def __len__(self) -> int:
         return self.poses.shape[0]
@@ -316,6 +360,12 @@ class PoseGraph:
         self.match_points.append(_surface_points(scan.origin, scan.match, self.hit_offset))
         scan = _compact(scan)
         k = len(self)
+        odom_delta = np.zeros(3) if k == 0 else np.asarray(odom_delta, dtype=float)
+        self._odom = np.vstack([self._odom, odom_delta])
+        self._odom_info = np.concatenate([self._odom_info,
+                                          self._odometry_information(odom_delta)[None]])
+        self._scan_info = np.concatenate([self._scan_info, scan_information(
+            self.points[-1], cfg.point_sigma_m, cfg.info_points)[None]])
         if k == 0:
             chain_pose, travelled = pose.copy(), 0.0
         else:
@@ -323,10 +373,17 @@ class PoseGraph:
                 z = self._sequential_edge(scan, np.asarray(odom_delta, dtype=float))
             else:  # fresh ground: the filter's own increment (its map is consistent here)
                 z = relative(self.poses[-1], pose)
+                self._filter_edges.append(len(self.edges))
+            if cfg.seq_model == "geometry":
+                zs, ws = self._geometry_edges(np.array([k]), z[None])
+                z, sqrt_info = zs[0], ws[0]
+            else:
+                d = math.hypot(z[0], z[1])
+                sqrt_info = _sqrt_info(1.0 / np.array(
+                    [cfg.seq_sigma_xy[0] + cfg.seq_sigma_xy[1] * d] * 2
+                    + [cfg.seq_sigma_theta[0] + cfg.seq_sigma_theta[1] * d]))
             d = math.hypot(z[0], z[1])
-            inv = 1.0 / np.array([cfg.seq_sigma_xy[0] + cfg.seq_sigma_xy[1] * d] * 2
-                                 + [cfg.seq_sigma_theta[0] + cfg.seq_sigma_theta[1] * d])
-            self.edges.append((k - 1, k, z, _sqrt_info(inv)))
+            self.edges.append((k - 1, k, z, sqrt_info))
             chain_pose = compose(self.chain[-1], z)
             travelled = float(self.path_m[-1]) + d
         self.poses = np.vstack([self.poses, pose])
@@ -336,6 +393,60 @@ class PoseGraph:
         if not cfg.enabled or k == 0 or travelled < self._next_check_m:
             return LoopResult()
         return self._search_loop(k)
+
+    def _odometry_information(self, odom_delta: np.ndarray) -> np.ndarray:
+        """Information (previous keyframe's frame) of the odometry increment ``odom_delta``:
+        std a + b d along the motion, across it and in heading (``odom_sigma_*``)."""
+        cfg = self.cfg
+        d = math.hypot(odom_delta[0], odom_delta[1])
+        heading = math.atan2(odom_delta[1], odom_delta[0]) if d > 1e-6 else 0.0
+        ch, sh = math.cos(heading), math.sin(heading)
+        rot = np.array([[ch, -sh, 0.0], [sh, ch, 0.0], [0.0, 0.0, 1.0]])  # motion frame
+        var = np.array([cfg.odom_sigma_along[0] + cfg.odom_sigma_along[1] * d,
+                        cfg.odom_sigma_cross[0] + cfg.odom_sigma_cross[1] * d,
+                        cfg.odom_sigma_theta[0] + cfg.odom_sigma_theta[1] * d]) ** 2
+        return rot @ np.diag(1.0 / var) @ rot.T
+
+    def _geometry_edges(self, nodes: np.ndarray, z_scan: np.ndarray
+                        ) -> Tuple[np.ndarray, np.ndarray]:
+        """Sequential edges into ``nodes`` (k-1 -> k) from the front end's increments
+        ``z_scan`` where keyframe k's scan constrains them (its surface geometry,
+        ``scan_information``) and the odometry's increments where it does not (along a
+        featureless corridor the filter's estimate is the odometry's plus its own sampling
+        noise), all at once: (z, sqrt_info) stacks."""
+        c, s = np.cos(z_scan[:, 2]), np.sin(z_scan[:, 2])
+        rot = np.zeros((nodes.size, 3, 3))
+        rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1] = c, -s, s, c
+        rot[:, 2, 2] = 1.0
+        info_scan = rot @ self._scan_info[nodes] @ rot.transpose(0, 2, 1)  # into frame k-1
+        info_odom = self._odom_info[nodes]
+        info = info_scan + info_odom
+        d = self._odom[nodes] - z_scan
+        d[:, 2] = wrap_angle(d[:, 2])
+        z = z_scan + np.linalg.solve(info, (info_odom @ d[:, :, None]))[:, :, 0]
+        z[:, 2] = wrap_angle(z[:, 2])
+        return z, np.linalg.cholesky(info).transpose(0, 2, 1)
+
+    def reanchor(self, poses: np.ndarray) -> None:
+        """Replace the node poses with ``poses`` (the filter's trajectory of its best
+        particle: the one its map was built from, whose increments do not jump between
+        particles as the best pose of each update does) and recompute the sequential
+        edges taken from the filter from them."""
+        poses = np.asarray(poses, dtype=float)
+        if poses.shape != self.poses.shape:
+            raise ValueError("reanchor: %s poses for %d keyframes" % (poses.shape, len(self)))
+        self.poses = poses.copy()
+        idx = np.array(self._filter_edges, dtype=np.int64)
+        if idx.size == 0:
+            return
+        nodes = np.array([self.edges[e][1] for e in idx])
+        z_scan = relative(poses[nodes - 1], poses[nodes])
+        if self.cfg.seq_model == "geometry":
+            z, w = self._geometry_edges(nodes, z_scan)
+        else:
+            z, w = z_scan, [self.edges[e][3] for e in idx]
+        for n, e in enumerate(idx):
+            self.edges[e] = (int(nodes[n]) - 1, int(nodes[n]), z[n], w[n])
 
     def _revisiting(self, pose: np.ndarray, k: int) -> bool:
         """Whether keyframes far back along the path (``min_travel_m``) lie within the
@@ -379,6 +490,8 @@ class PoseGraph:
         old = np.nonzero(self.path_m[:k] <= self.path_m[k] - cfg.min_travel_m)[0]
         if old.size == 0:
             return LoopResult()
+        if self.trajectory_source is not None:
+            self.reanchor(self.trajectory_source())
         gap = np.hypot(self.poses[old, 0] - self.poses[k, 0],
                        self.poses[old, 1] - self.poses[k, 1])
         if gap.min() > cfg.search_radius_m:

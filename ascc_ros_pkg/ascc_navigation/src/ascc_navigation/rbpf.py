@@ -433,6 +433,9 @@ class RbpfSlam:
         self.initialized = False
         self.updates = 0
         self._table = _field_table(cfg.occ_thresh)
+        # each particle's trajectory: the pose at which it registered the scan of update u
+        # (column u), carried through resampling like its map (gmapping's particle tree)
+        self._history = np.zeros((cfg.particles, 64, 3))
 
     @property
     def weights(self) -> np.ndarray:
@@ -455,7 +458,28 @@ class RbpfSlam:
         stats.grown = self._register(scan)
         self.initialized = True
         self.updates = 1
+        self._record(0)
         return stats
+
+    def _record(self, column: int) -> None:
+        if column >= self._history.shape[1]:
+            grown = np.zeros((self._history.shape[0], 2 * column, 3))
+            grown[:, :self._history.shape[1]] = self._history
+            self._history = grown
+        self._history[:, column] = self.poses
+
+    def trajectory(self, updates: Optional[np.ndarray] = None,
+                   particle: Optional[int] = None) -> np.ndarray:
+        """The poses (map frame) at which particle ``particle`` (default: the best)
+        registered the scans of the given updates (0 = the first scan; default: all): the
+        trajectory its map was built from."""
+        p = self.best if particle is None else particle
+        cols = np.arange(self.updates) if updates is None else np.asarray(updates)
+        return self._history[p, cols].copy()
+
+    def set_trajectory(self, updates: np.ndarray, poses: np.ndarray) -> None:
+        """Every particle's poses at the given updates replaced (a map rebuilt from them)."""
+        self._history[:, np.asarray(updates)] = np.asarray(poses, dtype=float)[None]
 
     def restart(self, pose, maps: ParticleMaps) -> None:
         """Continue from a map rebuilt elsewhere (the pose graph's loop closure): every
@@ -508,12 +532,14 @@ class RbpfSlam:
             idx = low_variance_resample(weights, self.rng)
             self.poses = self.poses[idx]
             self.maps.select(idx)
+            self._history[:, :self.updates] = self._history[idx, :self.updates]
             self.log_w[:] = 0.0
             survivors = np.nonzero(idx == self.best)[0]
             self.best = int(survivors[0]) if survivors.size else 0
             stats.resampled = True
         stats.grown = self._register(scan)
         stats.best = self.best
+        self._record(self.updates)
         self.updates += 1
         return stats
 
