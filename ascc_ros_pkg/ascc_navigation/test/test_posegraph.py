@@ -258,3 +258,31 @@ def test_loop_parameters_have_units_and_names():
                  "loop_min_correction_m"):
         assert name in names
         assert "[" in names[name].doc or name == "loop_closure"
+
+
+def test_scan_information_has_none_along_a_featureless_corridor():
+    """ICP information of a corridor's two walls: position across and heading determined,
+    none along it; a wall across the corridor adds it. A geometry edge there takes the
+    position along the corridor from the odometry, the rest from the front end."""
+    x = np.linspace(-3.0, 3.0, 241)
+    walls = np.vstack([np.column_stack([x, np.full_like(x, 1.2)]),
+                       np.column_stack([x[::-1], np.full_like(x, -1.2)])])
+    info = PG.scan_information(walls, 0.05, 120)
+    assert abs(info[0, 0]) < 1e-9 and info[1, 1] > 1e4 and info[2, 2] > 1e4
+    end = np.column_stack([np.full(49, 3.0), np.linspace(-1.2, 1.2, 49)])
+    closed = PG.scan_information(np.vstack([walls[:241], end, walls[241:]]), 0.05, 120)
+    assert closed[0, 0] > 1e3
+    graph = PG.PoseGraph(PG.LoopClosureConfig())
+    graph._scan_info = info[None].repeat(2, axis=0)
+    odom = np.array([0.25, 0.0, 0.0])
+    graph._odom = np.vstack([np.zeros(3), odom])
+    graph._odom_info = np.stack([np.eye(3), graph._odometry_information(odom)])
+    front_end = np.array([0.31, 0.004, 0.002])  # 6 cm too far along, 4 mm across
+    z, w = graph._geometry_edges(np.array([1]), front_end[None])
+    assert abs(z[0, 0] - 0.25) < 0.002           # along: the odometry's
+    assert abs(z[0, 1] - 0.004) < 0.001          # across and heading: the front end's
+    assert abs(z[0, 2] - 0.002) < 0.0005
+    c, s = math.cos(front_end[2]), math.sin(front_end[2])  # scan info into frame k-1
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(w[0].T @ w[0], rot @ info @ rot.T + graph._odom_info[1],
+                               rtol=1e-9, atol=1e-6)

@@ -398,3 +398,32 @@ def test_slam_node_params_tf_delay_follows_the_publish_period_and_seed_stays_uns
     assert p.mapper.rbpf.particles == 12
     p = from_params(M.SlamNodeParams, {"tf_delay": 0.0, "seed": 7}.get)
     assert p.tf_delay_s() == 0.0 and p.seed == 7
+
+
+def test_each_particles_trajectory_rebuilds_its_map_after_resampling():
+    """RbpfSlam.trajectory: the poses at which a particle registered its scans, carried
+    through resampling with its map, so re-registering the scans there gives its map."""
+    from ascc_navigation.posegraph import rebuild_counts
+
+    world = S.office_world()
+    cfg = R.RbpfConfig(particles=8, xmin=0, ymin=0, xmax=14, ymax=10, srr=0.05, srt=0.1,
+                       str=0.05, stt=0.1, resample_threshold=1.0)  # resample every update
+    slam = R.RbpfSlam(cfg, seed=3)
+    kw = dict(lskip=2, free_pullback=0.05, hit_offset=0.025)
+    truth = [np.array([2.0 + 0.25 * k, 1.8, 0.0]) for k in range(12)]
+    scans = [_prepare(_room_scan(p, world=world, noise=0.01, seed=k), **kw)
+             for k, p in enumerate(truth)]
+    slam.start(truth[0], scans[0])
+    resampled = 0
+    for k in range(1, len(truth)):
+        resampled += slam.update(P.relative(truth[k - 1], truth[k]), scans[k]).resampled
+    assert resampled >= 5
+    for p in (slam.best, (slam.best + 3) % cfg.particles):
+        traj = slam.trajectory(particle=p)
+        assert traj.shape == (len(truth), 3)
+        np.testing.assert_array_equal(traj[-1], slam.poses[p])
+        maps = rebuild_counts(lambda: R.ParticleMaps(1, slam.maps.info), traj, scans)
+        np.testing.assert_array_equal(maps.hits[0], slam.maps.hits[p])
+        np.testing.assert_array_equal(maps.visits[0], slam.maps.visits[p])
+    # particles differ: their trajectories are their own
+    assert len({tuple(slam.trajectory(particle=p)[-1]) for p in range(cfg.particles)}) > 1
