@@ -90,8 +90,12 @@ class LoopClosureConfig:
     max_points: int = 400             # matched end points per scan (evenly subsampled)
     # sequential edges: "geometry" = the front end's increment where its scan constrains
     # it, the odometry's where not (``PoseGraph._geometry_edges``); "isotropic" = the
-    # front end's increment with the fixed stds seq_sigma_*
-    seq_model: str = "geometry"
+    # front end's increment with the fixed stds seq_sigma_* (the default: "geometry" made
+    # test_corridor_loop's trajectory worse, see docs/results)
+    seq_model: str = "isotropic"
+    # node poses before a loop search: "particle" = re-anchored on the best particle's
+    # trajectory (``PoseGraph.trajectory_source``), "best_pose" = each update's best pose
+    anchor: str = "best_pose"
     seq_sigma_xy: Tuple[float, float] = (0.01, 0.03)     # [m] + [m/m] std of a sequential edge
     seq_sigma_theta: Tuple[float, float] = (0.005, 0.01)  # [rad] + [rad/m]
     point_sigma_m: float = 0.05       # [m] std of one surface point (scan information)
@@ -490,7 +494,7 @@ class PoseGraph:
         old = np.nonzero(self.path_m[:k] <= self.path_m[k] - cfg.min_travel_m)[0]
         if old.size == 0:
             return LoopResult()
-        if self.trajectory_source is not None:
+        if self.cfg.anchor == "particle" and self.trajectory_source is not None:
             self.reanchor(self.trajectory_source())
         gap = np.hypot(self.poses[old, 0] - self.poses[k, 0],
                        self.poses[old, 1] - self.poses[k, 1])
