@@ -120,12 +120,79 @@ def test_a_location_near_a_label_is_fused_there():
     sm = make(associate_m=0.25)
     stay(sm, 0.0, 3.0, 0.49, 0.5)                # cell (1, 2)
     first = sm.observe(3.0, "sitting").label
+    sm.observe(3.0, "walking")                   # two stays, not one
     stay(sm, 3.0, 6.0, 0.51, 0.5)                # cell (2, 2), 0.02 m away
     assert sm.observe(6.0, "sitting").label is first
     assert first.grid == (1, 2) and first.updates == 2 and first.x == pytest.approx(0.5)
+    sm.observe(6.0, "walking")
     stay(sm, 6.0, 9.0, 0.9, 0.5)                 # 0.4 m away: a grid of its own
     other = sm.observe(9.0, "sitting").label
     assert other is not first and other.grid == (3, 2)
+
+
+def jumpy_stay(sm, t0, n, points, activity):
+    """``n`` windows 0.5 s apart, the person tracked at ``points[k % len(points)]``
+    during window k (a location that jumps between windows, not within one)."""
+    out = []
+    for k in range(n):
+        t = t0 + 0.5 * (k + 1)
+        x, y = points[k % len(points)]
+        stay(sm, t - 0.5, t, x, y)
+        out.append(sm.observe(t, activity).label)
+    return out
+
+
+def test_one_stay_with_jumping_locations_is_one_label_at_its_median():
+    """Windows of one stationary episode whose locations jump by more than associate_m
+    (0.3-0.6 m here) fuse at one grid: that of the episode's median location."""
+    sm = make(APARTMENT, window_s=0.5, associate_m=0.25, min_observations=5)
+    pts = [(0.5, 0.5), (0.8, 0.5), (0.5, 0.8), (0.2, 0.5), (0.5, 0.2)]  # 0.3-0.6 m apart
+    labs = jumpy_stay(sm, 0.0, 10, pts, "lying")
+    assert len(sm.labels) == 1 and all(lab is labs[-1] for lab in labs[3:])
+    (lab,) = sm.labels.values()
+    xs, ys = zip(*[pts[k % 5] for k in range(10)])
+    assert lab.grid == sm.cell(float(np.median(xs)), float(np.median(ys))) == (2, 2)
+    assert lab.updates == 10 and lab.counts.sum() == 10
+    assert (lab.x, lab.y) == pytest.approx((np.mean(xs), np.mean(ys)))
+    assert sm.published_labels() == [lab]
+    # the same windows with a walk between each (five stays): grids of their own, none
+    # with five observations
+    split = make(APARTMENT, window_s=0.5, associate_m=0.25, min_observations=5)
+    for k in range(10):
+        split.observe(0.5 * k + 0.2, "walking")
+        jumpy_stay(split, 0.5 * k, 1, [pts[k % 5]], "lying")
+    assert len(split.labels) == 5 and split.published_labels() == []
+
+
+def test_an_episode_moves_its_observations_with_its_median():
+    """The first window of a stay located 0.5 m off: once the median settles elsewhere
+    the episode's label moves there, and the first grid is gone (no stray)."""
+    sm = make(window_s=0.5, associate_m=0.25)
+    jumpy_stay(sm, 0.0, 1, [(1.5, 0.5)], "sitting")
+    assert list(sm.labels) == [(6, 2)]
+    jumpy_stay(sm, 0.5, 4, [(1.0, 0.5)], "sitting")
+    (lab,) = sm.labels.values()
+    assert lab.grid == (4, 2) and lab.updates == 5
+    assert lab.x == pytest.approx((1.5 + 4 * 1.0) / 5)
+    np.testing.assert_array_equal(lab.counts, np.bincount(
+        [sm.models.activities.index("sitting")] * 5, minlength=len(sm.models.activities)))
+
+
+def test_episodes_end_at_walking_a_gap_or_a_far_window():
+    sm = make(window_s=0.5, associate_m=0.25, leave_distance_m=1.0, episode_gap_s=10.0)
+    jumpy_stay(sm, 0.0, 2, [(0.5, 0.5)], "sitting")
+    first = sm.episode
+    sm.observe(1.2, "unknown")                          # unknown: the stay goes on
+    with pytest.raises(LocationError, match="no location"):
+        sm.observe(5.0, "lying")                        # not fused; the stay goes on
+    assert sm.episode is first
+    jumpy_stay(sm, 30.0, 1, [(0.9, 0.5)], "sitting")    # after 29 s: a new stay
+    assert sm.episode is not first and len(sm.labels) == 2
+    second = sm.episode
+    jumpy_stay(sm, 30.5, 1, [(2.2, 0.5)], "sitting")    # 1.3 m away: a new stay
+    assert sm.episode is not second and len(sm.labels) == 3
+    sm.observe(31.5, "stand_to_sit")
+    assert sm.episode is None
 
 
 def test_skipped_activities_update_nothing():
@@ -223,6 +290,7 @@ def test_apartment_models_label_bench_chair_shelf():
                                               ("standing", "shelf"))):
         x = -0.55
         y = -0.5 + 1.0 * i
+        sm.observe(10.0 * i, "walking")
         stay(sm, 10.0 * i, 10.0 * i + 3.0, x, y)
         assert sm.observe(10.0 * i + 3.0, activity).label.label == expected
 
