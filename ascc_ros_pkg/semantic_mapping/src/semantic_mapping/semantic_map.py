@@ -23,19 +23,22 @@ Semantic grid. Cells of ``grid_resolution_m`` anchored at the map frame's origin
 occupancy map grows while it is built; the semantic cells do not move with it). A
 location within ``associate_m`` of a labelled grid's location is fused there (the person
 sitting on a cell border would otherwise split one item into two labels). A label's
-position is the mean of the person's locations fused at its grid (inside its cell; the
-cell's centre would add up to 0.7 x ``grid_resolution_m`` of rounding).
+position is the median of the person's locations fused at its grid (inside its cell; the
+cell's centre would add up to 0.7 x ``grid_resolution_m`` of rounding; the median, as a
+few windows located metres off do not move it).
 
 Stationary episodes. The person does not move between two activities of the models
-unless the recognizer sees them walk or rise: the fused windows from one such stretch
-(an *episode*) are one stay at one place, and are fused at one grid, the one of the
+unless the recognizer sees them walk or rise (walking: 1.000 of the held-out persons'
+windows, and a walk between two items lasts many windows): the fused windows of one such
+stretch (an *episode*) are one stay at one place, fused at one grid, that of the
 episode's median location (re-associated as the median settles; the episode's
-observations move with it). The located windows of a lying person jumped by 0.3-0.9 m
-(range and bearing of a shirt on a body 1.7 m long) and split one stay over four grids,
-none with the minimum evidence. An episode ends at an activity outside the models
-(walking, a transition), at a window located farther than ``leave_distance_m`` from its
-median (the recognizer missed the walk), or after ``episode_gap_s`` without a fused
-window. "unknown" windows and skipped windows (no location, moved) do not end it.
+observations move with it). A window located far from the rest of its episode is a
+location error (a lying person cannot walk off), and the median outvotes it. The
+located windows of a lying person jumped by 0.3-0.9 m (range and bearing of a shirt on a
+body 1.7 m long) and split one stay over four grids, none with the minimum evidence; a
+detection elsewhere made labels of its own. An episode ends at an activity outside the
+models (walking, a transition) or after ``episode_gap_s`` without a fused window;
+"unknown" windows and skipped windows (no location, moved) do not end it.
 
 Location type on the newest map. The robot's map grows while the person is at the
 furniture, and the person hides what is behind them (the bench's face is mapped only
@@ -62,7 +65,7 @@ from __future__ import annotations
 import math
 import os
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Deque, Dict, List, Optional, Sequence, Tuple
 
 import cv2
@@ -106,9 +109,7 @@ class SemanticMapperParams:
                               "this (0.5: more likely than all the others together)",
                               ge=0.0, le=1.0)
     leave_distance_m: float = param(1.0, "[m] the person this far from a label has left it "
-                                    "(a later visit is a return); a window this far from "
-                                    "its stationary episode's median starts a new one",
-                                    gt=0.0)
+                                    "(a later visit is a return)", gt=0.0)
     episode_gap_s: float = param(10.0, "[s] a stationary episode ends after this long "
                                  "without a fused window", gt=0.0)
     target_kind: str = param("shirt", "the detection kind that is the person")
@@ -133,7 +134,7 @@ class Label:
     """The semantic label of one grid."""
 
     grid: Tuple[int, int]
-    x: float                 # [m] map frame: the mean of the fused locations
+    x: float                 # [m] map frame: the median of the fused locations
     y: float
     label: str               # MAP furniture (eq. 5.3)
     belief: np.ndarray       # P_{G,t}(F)
@@ -144,8 +145,7 @@ class Label:
     counts: Optional[np.ndarray] = None  # observations per activity O
     left: bool = False       # the person went farther than leave_distance_m since
     returned: bool = False   # came back after leaving (5.6)
-    sum_x: float = 0.0       # [m] of the fused locations
-    sum_y: float = 0.0
+    episodes: List[Episode] = field(default_factory=list)  # the stays fused here
 
     @property
     def text(self) -> str:
@@ -262,8 +262,7 @@ class SemanticMap:
         except ValueError as err:
             raise LocationError("the person's %s" % err) from err
         ep = self.episode
-        if ep is not None and (t - ep.last_t > self.p.episode_gap_s or math.hypot(
-                x - ep.median[0], y - ep.median[1]) > self.p.leave_distance_m):
+        if ep is not None and t - ep.last_t > self.p.episode_gap_s:
             ep = None
         if ep is None:
             ep = self.episode = Episode(np.zeros(len(self._index), int), [], [], t)
@@ -289,12 +288,17 @@ class SemanticMap:
         h = lab.entropy_bits
         lab.counts -= ep.counts
         lab.updates -= len(ep.xs)
-        lab.sum_x -= sum(ep.xs)
-        lab.sum_y -= sum(ep.ys)
+        lab.episodes = [e for e in lab.episodes if e is not ep]
         if lab.updates > 0:
-            lab.x, lab.y = lab.sum_x / lab.updates, lab.sum_y / lab.updates
+            self._place(lab)
             self._fuse(lab)
         return h
+
+    @staticmethod
+    def _place(lab: Label) -> None:
+        """The label's position: the median of its episodes' located windows."""
+        lab.x = float(np.median([x for e in lab.episodes for x in e.xs]))
+        lab.y = float(np.median([y for e in lab.episodes for y in e.ys]))
 
     def _attach(self, ep: Episode) -> Label:
         """Fuse the episode at the grid of its median location."""
@@ -311,8 +315,8 @@ class SemanticMap:
         ep.grid = g
         lab.counts += ep.counts
         lab.updates += len(ep.xs)
-        lab.sum_x, lab.sum_y = lab.sum_x + sum(ep.xs), lab.sum_y + sum(ep.ys)
-        lab.x, lab.y = lab.sum_x / lab.updates, lab.sum_y / lab.updates
+        lab.episodes.append(ep)
+        self._place(lab)
         self._fuse(lab)
         return lab
 
