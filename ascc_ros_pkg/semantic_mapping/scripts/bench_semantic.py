@@ -141,7 +141,10 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_semantic"))
-    ap.add_argument("--port", type=int, default=11611)
+    ap.add_argument("--port", type=int, default=13711,
+                    help="ROS master port of the runs (the camera's HTTP port: +1000); "
+                         "not 11611, bench_colloc's first port: two runs on one master "
+                         "see each other's topics")
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--rule", nargs=2, type=float, metavar=("MIN_OBSERVATIONS", "MIN_BELIEF"),
                     help="report what the saved labels (published and candidates) give "
