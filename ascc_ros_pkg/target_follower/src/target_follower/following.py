@@ -3,10 +3,11 @@ that places each camera frame at the robot's pose when it was taken, and the che
 target_follower/Detection before it becomes a tracker ``Observation``."""
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import Optional, Tuple
+
+import numpy as np
 
 from ascc_common.params import nested, param
 from ascc_common.pose2d import wrap_angle
@@ -45,43 +46,65 @@ class TargetFollowerParams:
 
 
 class OdomHistory:
-    """Recent odometry poses (x, y, yaw) by stamp [s]; ``pose_at`` interpolates."""
+    """Recent odometry poses (x, y, yaw) by stamp [s] in numpy arrays (a buffer that drops
+    what is older than ``keep_s`` in place); ``pose_at`` interpolates, ``stamps`` and
+    ``poses`` are views (no copy per frame: the latency estimate reads them on each)."""
 
-    def __init__(self, keep_s: float):
+    def __init__(self, keep_s: float, capacity: int = 256):
         self.keep_s = keep_s
-        self.stamps: List[float] = []
-        self.poses: List[Tuple[float, float, float]] = []
+        self._t = np.empty(capacity)
+        self._p = np.empty((capacity, 3))
+        self._i0 = self._n = 0  # the history is [_i0, _n)
+
+    @property
+    def stamps(self) -> np.ndarray:
+        return self._t[self._i0:self._n]
+
+    @property
+    def poses(self) -> np.ndarray:
+        return self._p[self._i0:self._n]
+
+    def __len__(self) -> int:
+        return self._n - self._i0
 
     def clear(self) -> None:
-        self.stamps, self.poses = [], []
+        self._i0 = self._n = 0
 
     def add(self, stamp_s: float, pose: Tuple[float, float, float]) -> None:
         """Append a pose; one older than the newest is dropped (out of order)."""
-        if self.stamps and stamp_s < self.stamps[-1]:
+        if self._n > self._i0 and stamp_s < self._t[self._n - 1]:
             return
-        self.stamps.append(stamp_s)
-        self.poses.append(pose)
-        cut = bisect.bisect_left(self.stamps, stamp_s - self.keep_s)
-        if cut > 0:
-            del self.stamps[:cut], self.poses[:cut]
+        if self._n == len(self._t):  # full: move the kept part to the front, or grow
+            k = self._n - self._i0
+            if k > len(self._t) // 2:
+                self._t = np.concatenate([self._t, np.empty(len(self._t))])
+                self._p = np.concatenate([self._p, np.empty((len(self._p), 3))])
+            self._t[:k] = self._t[self._i0:self._n]
+            self._p[:k] = self._p[self._i0:self._n]
+            self._i0, self._n = 0, k
+        self._t[self._n] = stamp_s
+        self._p[self._n] = pose
+        self._n += 1
+        self._i0 += int(np.searchsorted(self.stamps, stamp_s - self.keep_s))
 
     def newest(self) -> Optional[Tuple[float, float, float]]:
-        return self.poses[-1] if self.poses else None
+        return tuple(float(v) for v in self._p[self._n - 1]) if len(self) else None
 
     def pose_at(self, stamp_s: float) -> Optional[Tuple[float, float, float]]:
         """The pose at ``stamp_s``, interpolated; the oldest/newest outside the history."""
-        if not self.stamps:
+        if not len(self):
             return None
-        i = bisect.bisect_left(self.stamps, stamp_s)
+        stamps, poses = self.stamps, self.poses
+        i = int(np.searchsorted(stamps, stamp_s))
         if i == 0:
-            return self.poses[0]
-        if i == len(self.stamps):
-            return self.poses[-1]
-        t0, t1 = self.stamps[i - 1], self.stamps[i]
-        a, b = self.poses[i - 1], self.poses[i]
+            return tuple(float(v) for v in poses[0])
+        if i == len(stamps):
+            return tuple(float(v) for v in poses[-1])
+        t0, t1 = stamps[i - 1], stamps[i]
+        a, b = poses[i - 1], poses[i]
         f = (stamp_s - t0) / (t1 - t0) if t1 > t0 else 1.0
-        return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]),
-                wrap_angle(a[2] + f * wrap_angle(b[2] - a[2])))
+        return (float(a[0] + f * (b[0] - a[0])), float(a[1] + f * (b[1] - a[1])),
+                wrap_angle(float(a[2] + f * wrap_angle(float(b[2] - a[2])))))
 
 
 def observation_from_detection(d) -> Tuple[Optional[Observation], str]:

@@ -8,7 +8,9 @@ files remap it, e.g. to ``follower/cmd_vel`` in front of a mux), ``~state``
 disabled), ``~followed`` (geometry_msgs/PointStamped, the tracked target predicted to now,
 in the odometry frame), ``~trail`` (nav_msgs/Path, the target's trail the robot steers
 along, odometry frame, while subscribed) and ``~camera_latency`` (std_msgs/Float64 [s], the
-camera latency subtracted from the frames' stamps: target_follower.latency). Service
+camera latency subtracted from the frames' stamps: target_follower.latency) with
+``~camera_latency_std`` (std_msgs/Float64 [s], its evidence's standard error; inf before
+any). Service
 ``~enable`` (std_srvs/SetBool; ``~start_enabled``).
 
 Callbacks only store the newest input; a timer at ``~rate_hz`` runs the tracker
@@ -81,6 +83,7 @@ class TargetFollowerNode:
         self.point_pub = rospy.Publisher("~followed", PointStamped, queue_size=1)
         self.trail_pub = rospy.Publisher("~trail", Path, queue_size=1)
         self.latency_pub = rospy.Publisher("~camera_latency", Float64, queue_size=1)
+        self.latency_std_pub = rospy.Publisher("~camera_latency_std", Float64, queue_size=1)
         rospy.Subscriber("target", Target, self.on_target, queue_size=1)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
         rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=10)
@@ -222,9 +225,9 @@ class TargetFollowerNode:
                 self.latency.reset_track()
             else:
                 self.trail.add(track.seen, track.innovation_m)
-            self.latency.add(t, track.seen_base, np.asarray(self.odom.stamps),
-                             np.asarray(self.odom.poses))
+            self.latency.add(t, track.seen_base, self.odom.stamps, self.odom.poses)
             self.latency_pub.publish(Float64(data=self.latency.latency_s))
+            self.latency_std_pub.publish(Float64(data=self.latency.latency_std_s))
         self.target_stamp = t if self.target_stamp is None else max(self.target_stamp, t)
 
     def _take_scan(self, now):
