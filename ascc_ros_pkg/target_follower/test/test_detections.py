@@ -118,3 +118,35 @@ def test_nan_beams_raise_no_runtime_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert scan.points_in_base().shape[1] == 2
+
+
+@pytest.mark.parametrize("turn_rad", [0.25, -0.3])
+def test_laser_range_of_a_turning_robot_uses_the_pictures_time(turn_rad):
+    """The picture is taken with the target at bearing b; by the scan's stamp the robot has
+    turned by turn_rad (and driven 0.05 m): in the scan the target lies at about
+    b - turn_rad. Uncorrected, the camera's ray misses it (range from the size only);
+    with the motion the range is the laser's, and the position the picture's."""
+    from ascc_common.pose2d import compose, inverse, transform_points
+    from target_follower.detections import motion_between
+    b, r, radius = 0.4, 1.5, 0.12
+    centre = np.array([[r * math.cos(b), r * math.sin(b)]])  # base_link, picture time
+    picture, at_scan = (2.0, 1.0, 0.3), compose((2.0, 1.0, 0.3), (0.05, 0.0, turn_rad))
+    motion = motion_between(picture, at_scan)
+    seen = transform_points(inverse(motion), centre)[0]  # the target at the scan's time
+    laser = (0.1, 0.0, 0.0)
+    scan = scan_with_circle(seen, radius, laser_pose=laser)
+    blob = cone_blob(b, r)
+    plain = locate(CAM, blob, SHAPES["cone"], scan)
+    assert plain.range_source != RANGE_LASER
+    fixed = locate(CAM, blob, SHAPES["cone"], Scan(scan.ranges, scan.angle_min,
+                                                   scan.angle_increment, scan.range_min,
+                                                   scan.range_max, laser, motion))
+    assert fixed.range_source == RANGE_LASER
+    assert abs(fixed.range_m - (r - radius)) < 0.05
+    assert math.hypot(fixed.x_m - (r - radius) * math.cos(b),
+                      fixed.y_m - (r - radius) * math.sin(b)) < 0.06
+
+
+def test_motion_between_is_identity_when_standing_still():
+    from target_follower.detections import motion_between
+    assert motion_between((1.0, 2.0, 3.0), (1.0, 2.0, 3.0)) == pytest.approx((0, 0, 0))

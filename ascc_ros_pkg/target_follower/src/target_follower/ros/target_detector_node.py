@@ -2,8 +2,13 @@
 
 Subscribes ``camera/image_raw/compressed`` (sensor_msgs/CompressedImage; ``~use_compressed``
 false: ``camera/image_raw``, sensor_msgs/Image bgr8/rgb8/mono8), ``odom`` (its yaw rate
-sets the logo detector's blur compensation) and ``scan`` (range); TF ``~base_frame`` ->
-the scan's frame gives the laser's pose. Publishes ``target`` (target_follower/Target:
+sets the logo detector's blur compensation; its poses bring the scan to the picture's
+time), ``scan`` (range) and ``camera_latency`` (std_msgs/Float64 [s], the follower's
+estimate: the picture was taken at the frame's stamp less it; ``~camera_latency_s``
+until one arrives); TF ``~base_frame`` -> the scan's frame gives the laser's pose. The
+scan's points are moved by the robot's motion between the picture's time and the scan's
+stamp (odometry) before the beam at the target's bearing is picked
+(target_follower.detections). Publishes ``target`` (target_follower/Target:
 every plausible detection of the ``~kinds``, best first; an empty list = "no target"; one
 message per processed frame, so a stale detection is never repeated) and
 ``target/debug_image`` (sensor_msgs/Image, the detections drawn; only while subscribed).
@@ -29,13 +34,15 @@ import rospy
 import tf2_ros
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CompressedImage, Image, LaserScan
+from std_msgs.msg import Float64
 
 from ascc_common.camera_model import PanoramicCamera
 from ascc_common.params import from_params, param, tree_getter
-from ascc_common.pose2d import yaw_from_quaternion
+from ascc_common.pose2d import yaw_from_quaternion, yaw_of
 from target_follower.cli import load_config
 from target_follower.color_detector import COLOR_KINDS, KINDS, ColorDetector, ColorParams
-from target_follower.detections import SHAPES, Scan, TargetShape, locate
+from target_follower.detections import SHAPES, Scan, TargetShape, locate, motion_between
+from target_follower.following import OdomHistory
 from target_follower.logo_detector import LogoDetector, LogoParams, load_template
 from target_follower.msg import Detection, Target
 
@@ -67,6 +74,11 @@ class DetectorNodeParams:
     logo_height_m: float = param(0.4, "[m] height of the logo on its poster", gt=0.0)
     target_radius_m: float = param(0.3, "[m] laser hits within this of the camera ray "
                                         "belong to the target", gt=0.0)
+    camera_latency_s: float = param(0.0, "[s] the picture was taken this long before the "
+                                         "frame's stamp, until a camera_latency message "
+                                         "says otherwise", ge=0.0)
+    odom_history_s: float = param(3.0, "[s] odometry kept to bring the scan to the "
+                                       "picture's time", gt=0.0)
 
     def kind_list(self):
         kinds = [k.strip() for k in self.kinds.split(",") if k.strip()]
@@ -107,6 +119,9 @@ class TargetDetectorNode:
         self.cond = threading.Condition()
         self.pending = None  # the newest (msg, compressed) not processed yet
         self.odom = None  # (receipt time, yaw rate)
+        self.odom_lock = threading.Lock()
+        self.odom_history = OdomHistory(p.odom_history_s)
+        self.latency_s = p.camera_latency_s
         self.scan = None
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
@@ -120,6 +135,7 @@ class TargetDetectorNode:
                              queue_size=1, buff_size=2 ** 24)
         rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=5)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
+        rospy.Subscriber("camera_latency", Float64, self.on_latency, queue_size=1)
         self.worker = threading.Thread(target=self.run, name="target_detector", daemon=True)
         self.worker.start()
         rospy.loginfo("target_detector: kinds %s, %s", ",".join(self.kinds),
@@ -133,6 +149,28 @@ class TargetDetectorNode:
 
     def on_odom(self, msg):
         self.odom = (rospy.get_time(), msg.twist.twist.angular.z)
+        p = msg.pose.pose
+        pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+        if all(math.isfinite(v) for v in pose):
+            with self.odom_lock:
+                self.odom_history.add(msg.header.stamp.to_sec(), pose)
+
+    def on_latency(self, msg):
+        if math.isfinite(msg.data) and msg.data >= 0.0:
+            self.latency_s = msg.data
+        else:
+            rospy.logwarn_throttle(WARN_PERIOD_S, "target_detector: camera_latency %r "
+                                   "ignored (not a finite value >= 0)" % msg.data)
+
+    def motion(self, stamp, scan_stamp):
+        """``Scan.motion``: base_link at the scan's stamp in base_link at the picture's
+        time (stamp - latency), from the odometry; none without odometry."""
+        with self.odom_lock:
+            taken = self.odom_history.pose_at(stamp.to_sec() - self.latency_s)
+            scanned = self.odom_history.pose_at(scan_stamp.to_sec())
+        if taken is None or scanned is None:
+            return (0.0, 0.0, 0.0)
+        return motion_between(taken, scanned)
 
     def on_scan(self, msg):
         self.scan = msg
@@ -223,7 +261,8 @@ class TargetDetectorNode:
         q = t.transform.rotation
         pose = (t.transform.translation.x, t.transform.translation.y,
                 yaw_from_quaternion(q.x, q.y, q.z, q.w))
-        return Scan(r, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max, pose)
+        return Scan(r, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max, pose,
+                    self.motion(stamp, msg.header.stamp))
 
     def process(self, msg, compressed):
         stamp = msg.header.stamp
