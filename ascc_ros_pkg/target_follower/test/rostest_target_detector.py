@@ -7,7 +7,9 @@ laser 0.1 m ahead of base_link, a static TF the test broadcasts, whose beams hit
 cone's trunk and a wall behind it; a few NaN beams elsewhere) and ``odom`` (still). It
 asserts the Target message: the cone's bearing within 2 deg, range from the laser within
 0.15 m; a target-free frame gives an explicit empty list; corrupt JPEG frames give a
-warning naming the problem, throttled to one per 5 s, and the node goes on.
+warning naming the problem, throttled to one per 5 s, and the node goes on. A turning
+robot: the picture taken ``camera_latency`` before the frame's stamp, the scan at the
+stamp after the robot turned 0.35 rad (odometry): the cone's range is still the laser's.
 """
 import math
 import sys
@@ -22,8 +24,10 @@ import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CompressedImage, LaserScan
+from std_msgs.msg import Float64
 
 from ascc_common.camera_model import PanoramicCamera
+from ascc_common.pose2d import quaternion_from_yaw
 from ascc_testing.rosout import RosoutWatcher, assert_throttled
 from ascc_testing.waits import wait_for
 from target_follower import synthetic as S
@@ -65,7 +69,8 @@ class TargetDetectorTest(unittest.TestCase):
         cls.image_pub = rospy.Publisher("camera/image_raw/compressed", CompressedImage,
                                         queue_size=1)
         cls.scan_pub = rospy.Publisher("scan", LaserScan, queue_size=1)
-        cls.odom_pub = rospy.Publisher("odom", Odometry, queue_size=1)
+        cls.odom_pub = rospy.Publisher("odom", Odometry, queue_size=5)
+        cls.latency_pub = rospy.Publisher("camera_latency", Float64, queue_size=1, latch=True)
         cls.cam = PanoramicCamera()
         t = TransformStamped()
         t.header.stamp = rospy.Time.now()
@@ -141,6 +146,40 @@ class TargetDetectorTest(unittest.TestCase):
         msg = self.wait_target(*self.send(self.jpeg(img)))
         self.assertEqual(len(msg.detections), 1)
         self.assertLess(abs(math.degrees(msg.detections[0].bearing_rad + 2.5)), 2.0)
+
+    def test_4_turning_robot_laser_range_at_the_pictures_time(self):
+        """The picture is taken 0.3 s before the frame's stamp (camera_latency) with the
+        cone at 0.6 rad; by the stamp, when the scan is taken, the robot has turned 0.35
+        rad: in the scan the cone lies at 0.25 rad, 0.5 m beside the camera's ray."""
+        latency, turn, bearing, r = 0.3, 0.35, 0.6, 1.5
+        self.latency_pub.publish(Float64(data=latency))
+        wait_for(lambda: self.latency_pub.get_num_connections() > 0, 10, "camera_latency")
+        rospy.sleep(0.3)
+        img = S.background(self.cam, np.random.default_rng(10))
+        S.draw_cone(img, self.cam, bearing, r)
+        stamp = rospy.Time.now()
+        for dt, yaw in ((-0.6, 0.0), (-latency, 0.0), (0.0, turn)):
+            odom = Odometry()
+            odom.header.stamp = stamp + rospy.Duration(dt)
+            q = quaternion_from_yaw(yaw)
+            o = odom.pose.pose.orientation
+            o.x, o.y, o.z, o.w = q
+            self.odom_pub.publish(odom)
+            rospy.sleep(0.05)
+        seen = (r * math.cos(bearing - turn), r * math.sin(bearing - turn))
+        self.scan_pub.publish(scan_msg(stamp, seen))
+        rospy.sleep(0.1)
+        m = CompressedImage()
+        m.header.stamp, m.header.frame_id = stamp, "camera"
+        m.format = "jpeg"
+        m.data = self.jpeg(img)
+        n = len(self.targets)
+        self.image_pub.publish(m)
+        msg = self.wait_target(n, stamp)
+        d = msg.detections[0]
+        self.assertLess(abs(math.degrees(d.bearing_rad - bearing)), 2.0)
+        self.assertEqual(d.range_source, Detection.RANGE_LASER)
+        self.assertLess(abs(d.range_m - (r - CONE_RADIUS_M)), 0.15)
 
 
 if __name__ == "__main__":
