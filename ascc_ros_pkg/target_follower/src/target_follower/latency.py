@@ -44,9 +44,13 @@ combined as evidence, in the way of least squares:
 - **estimate and confidence**: the evidence's minimum (refined between candidates by a
   parabola) is the best latency, and its curvature there gives the standard error
   ``latency_std_s`` (least squares: evidence rises by 1 at one standard error). The
-  estimate moves toward the best latency only while that standard error is below
-  ``max_latency_std_s``, by at most ``max_latency_change_s`` per update; otherwise it
-  keeps its value. Until then, ``latency_s`` is used.
+  estimate moves toward the best latency only once ``min_latency_windows`` windows were
+  accepted and while that standard error is below ``max_latency_std_s``, by at most
+  ``max_latency_change_s`` per update; otherwise it keeps its value. Until then,
+  ``latency_s`` is used. The standard error assumes the residuals are noise; they are
+  also the person's own changes of pace (starting to walk: the first windows of a
+  recorded office run put the best latency at 0.8 s for 0.14 s), which is why a few
+  windows are not trusted however sharp their curves.
 """
 from __future__ import annotations
 
@@ -89,6 +93,8 @@ class LatencyParams:
                                      gt=0.0)
     max_latency_change_s: float = param(0.05, "[s] largest change of the estimate per "
                                               "update", gt=0.0)
+    min_latency_windows: int = param(16, "windows the evidence needs before the estimate "
+                                         "moves", ge=1)
 
     def validate(self) -> None:
         if self.latency_s > self.max_latency_s:
@@ -233,6 +239,7 @@ class LatencyEstimator:
         # evidence = curv/2 * (L - best)^2: it rises by 1 at sqrt(2 / curv)
         self.best_s = best
         self.latency_std_s = math.sqrt(2.0 / curv) if curv > 0.0 else math.inf
-        if self.latency_std_s < self.p.max_latency_std_s:
+        if self.latency_std_s < self.p.max_latency_std_s and \
+                self.estimates >= self.p.min_latency_windows:
             step = self.p.max_latency_change_s
             self.latency_s += float(np.clip(best - self.latency_s, -step, step))
