@@ -170,22 +170,32 @@ def distance_to_path(points, path):
 
 def replay_latency(run, gate_m=0.25, skip_s=20.0):
     """Print the open-loop replay of the latency estimate (module doc)."""
+    import time
+
+    from target_follower.following import OdomHistory, TargetFollowerParams
     from target_follower.latency import LatencyEstimator, LatencyParams
     tg, od, tr, pp = run["targets"], run["odom"], run["truth"], run["person"]
     tg = tg[np.isfinite(tg[:, 1])]
     est = LatencyEstimator(LatencyParams())
-    keep = LatencyParams().latency_window_s + LatencyParams().max_latency_s + 1.0
-    lat = []
+    history = OdomHistory(TargetFollowerParams().odom_keep_s())
+    lat, k, spent = [], 0, 0.0
     for row in tg:
-        m = (od[:, 0] <= row[0] + 0.05) & (od[:, 0] >= row[0] - keep)
+        while k < len(od) and od[k, 0] <= row[0] + 0.05:  # the odometry that has arrived
+            history.add(float(od[k, 0]), tuple(od[k, 1:4]))
+            k += 1
         lat.append(est.latency_s)  # the estimate when the frame is placed
-        est.add(row[0], row[1:3], od[m, 0], od[m, 1:4])
+        c0 = time.perf_counter()
+        est.add(row[0], row[1:3], history.stamps, history.poses)
+        spent += time.perf_counter() - c0
     lat = np.array(lat)
     sel = tg[:, 0] > tg[0, 0] + skip_s
     print("detections %d (%.1f Hz); latency estimate after %.0f s: median %.2f s, "
-          "5-95 %% %.2f-%.2f s" % (len(tg), len(tg) / (tg[-1, 0] - tg[0, 0]), skip_s,
-                                   np.median(lat[sel]), np.percentile(lat[sel], 5),
-                                   np.percentile(lat[sel], 95)))
+          "5-95 %% %.2f-%.2f s, max %.2f s (over the run %.2f s), largest change between "
+          "frames %.2f s; standard error at the end %.3f s; %.2f ms per frame"
+          % (len(tg), len(tg) / (tg[-1, 0] - tg[0, 0]), skip_s, np.median(lat[sel]),
+             np.percentile(lat[sel], 5), np.percentile(lat[sel], 95), lat[sel].max(),
+             lat.max(), np.abs(np.diff(lat)).max(), getattr(est, "latency_std_s", math.nan),
+             1e3 * spent / len(tg)))
     for name, delay in (("latency 0", np.zeros(len(tg))), ("estimated", lat)):
         xy = base_to_map(interp_pose(tr, tg[:, 0] - delay), tg[:, 1:3])
         d = distance_to_path(xy[sel], pp[:, 1:3])
