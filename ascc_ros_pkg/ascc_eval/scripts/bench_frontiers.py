@@ -18,13 +18,23 @@ Then, on the shared reference (`--reference-dir`, default $ASCC_FRONTIER_BASELIN
 if absent), exactly as its README says: `bfs_frontiers.cpp` built with `g++ -O2`, its
 `make_map.py` grid of --reference-size cells (4000), `to_mapserver.py`'s YAML + PGM loaded
 with ascc_common.map_io.load_map, the same robot cell; best of --repeat for both, in the
-same run, and the ratio ours / C++ (the issue's figure: under 0.5 is the goal).
+same run, and the ratio ours / C++ (the issue's figure: under 0.5 is the goal); ours also
+as CPU time (time.process_time, best of --repeat), steadier than wall time on a loaded
+machine.
+
+`--against REV` (with --only compare) checks a change of the search against the package at
+git revision REV (its src/frontier_detector extracted beside this one): identical plans
+(status, candidates, path lengths, scores, goal) on --maps random partially explored
+offices per strategy, then both versions' CPU time per plan on the reference map,
+alternating, best of --repeat.
 
     rosrun ascc_eval bench_frontiers.py [--sizes 1000 4000] [--repeat 5]
-        [--only synthetic|reference] [--reference-dir DIR] [--reference-size 4000]
+        [--only synthetic|reference|compare] [--reference-dir DIR] [--reference-size 4000]
+        [--against REV] [--maps 50]
 """
 
 import argparse
+import importlib
 import os
 import shutil
 import subprocess
@@ -140,12 +150,14 @@ def reference(ref_dir: str, n: int, repeat: int, params: PlannerParams) -> int:
             return 1
         # Interleaved, so that both see the same machine load.
         cpp_ms, ours_ms, result, cpp_out = float("inf"), float("inf"), None, ""
+        ours_cpu = float("inf")
         for _ in range(repeat):
             cpp_out = _run([exe, raw, str(w), str(h), str(rx), str(ry), "1"], tmp)
             cpp_ms = min(cpp_ms, float(dict(kv.split("=") for kv in cpp_out.split())["best_ms"]))
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             res = plan(grid, info, (x, y), params)
             wall = (time.perf_counter() - t0) * 1e3
+            ours_cpu = min(ours_cpu, (time.process_time() - c0) * 1e3)
             if wall < ours_ms:
                 ours_ms, result = wall, res
     t = result.timings_ms
@@ -156,6 +168,7 @@ def reference(ref_dir: str, n: int, repeat: int, params: PlannerParams) -> int:
     print(f"  ours plan():           {ours_ms:8.1f} ms   (phase1 {t['phase1']:.1f}, phase2 "
           f"{t['phase2']:.1f}, phase3 {t['phase3']:.1f}, utility {t['utility']:.1f}; "
           f"{result.frontiers.n_candidates} candidates, status {result.status})")
+    print(f"  ours plan(), CPU time: {ours_cpu:8.1f} ms   (process_time, best of {repeat})")
     print(f"  ratio ours / C++:      {ours_ms / cpp_ms:8.2f}")
     return 0
 
@@ -167,19 +180,129 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--explored", type=float, default=0.8,
                     help="radius of the explored disc as a fraction of half the map side")
-    ap.add_argument("--only", choices=("synthetic", "reference"),
-                    help="run only the synthetic sizes or only the shared reference")
+    ap.add_argument("--only", choices=("synthetic", "reference", "compare"),
+                    help="run only the synthetic sizes, the shared reference, or the "
+                         "comparison with --against")
+    ap.add_argument("--against", metavar="REV",
+                    help="git revision whose frontier_detector the comparison runs beside "
+                         "this one")
+    ap.add_argument("--maps", type=int, default=50,
+                    help="random maps per strategy for the comparison")
     ap.add_argument("--reference-dir", default=default_reference_dir(),
                     help="the shared C++ reference (default: %(default)s)")
     ap.add_argument("--reference-size", type=int, default=4000,
                     help="map side [cells] given to the reference's make_map.py")
     args = ap.parse_args()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cores {os.cpu_count()}")
+    if args.only == "compare":
+        if not args.against:
+            ap.error("--only compare needs --against REV")
+        return compare(args)
     if args.only != "reference":
         synthetic(args)
     if args.only != "synthetic":
         return reference(args.reference_dir, args.reference_size, args.repeat, PlannerParams())
     return 0
+
+
+def import_revision(rev: str, tmp: str):
+    """frontier_detector's goal_selection module at git revision rev, as package fd_<rev>."""
+    top = os.path.normpath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
+                                        "..", "..", ".."))
+    src = "ascc_ros_pkg/frontier_detector/src/frontier_detector"
+    name = "fd_" + "".join(ch for ch in rev if ch.isalnum())
+    dest = os.path.join(tmp, name)
+    os.makedirs(dest)
+    files = subprocess.run(["git", "-C", top, "ls-tree", "--name-only", f"{rev}:{src}"],
+                           check=True, capture_output=True, text=True).stdout.split()
+    for f in files:
+        if f.endswith(".py"):
+            text = subprocess.run(["git", "-C", top, "show", f"{rev}:{src}/{f}"], check=True,
+                                  capture_output=True, text=True).stdout
+            with open(os.path.join(dest, f), "w") as fh:
+                fh.write(text)
+    sys.path.insert(0, tmp)
+    return importlib.import_module(name + ".goal_selection")
+
+
+def plan_differences(a, b) -> list:
+    """Names of the plan fields that differ between two plans (exact comparison)."""
+    out = []
+    if a.status != b.status:
+        out.append("status")
+    fa, fb = a.frontiers, b.frontiers
+    for name in ("phase1_rc", "phase2_rc", "goals_rc", "centroids_rc", "cluster_cells",
+                 "observe_only", "unreachable_rc", "phase2_cluster", "traversable", "path_m"):
+        va, vb = getattr(fa, name), getattr(fb, name)
+        if (va is None) != (vb is None) or (va is not None and not np.array_equal(va, vb)):
+            out.append(name)
+    if fa.robot_rc != fb.robot_rc:
+        out.append("robot_rc")
+    if (a.scores is None) != (b.scores is None):
+        out.append("scores")
+    elif a.scores is not None:
+        for name in ("info", "nav", "loc", "path_m", "total"):
+            if not np.array_equal(getattr(a.scores, name), getattr(b.scores, name)):
+                out.append("scores." + name)
+    if a.goal_xy != b.goal_xy or a.goal_yaw != b.goal_yaw:
+        out.append("goal")
+    return out
+
+
+def compare(args) -> int:
+    """Identical plans of this revision and --against on random maps, then CPU per plan."""
+    rng = np.random.default_rng(args.seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        old = import_revision(args.against, tmp)
+        n_plans, differing, statuses = 0, [], {}
+        for strategy in ("utility", "nearest"):
+            for i in range(args.maps):
+                n = int(rng.integers(200, 900))
+                seed = int(rng.integers(0, 1 << 30))
+                grid, robot = make_map(n, seed, float(rng.uniform(0.3, 0.95)))
+                info = GridInfo(RESOLUTION, n, n)
+                # A robot cell anywhere known now and then, not only the free one.
+                if i % 5 == 4:
+                    known = np.argwhere(grid != -1)
+                    robot = tuple(int(v) for v in known[rng.integers(0, known.shape[0])])
+                x, y = info.cell_to_world(np.array([robot[1]]), np.array([robot[0]]))
+                xy = (float(x[0]), float(y[0]))
+                entropy = float(rng.uniform(0.0, 3.0))
+                new_p = PlannerParams(strategy=strategy)
+                old_p = old.PlannerParams(strategy=strategy)
+                a = plan(grid, info, xy, new_p, entropy)
+                b = old.plan(grid, info, xy, old_p, entropy)
+                n_plans += 1
+                statuses[a.status] = statuses.get(a.status, 0) + 1
+                diff = plan_differences(a, b)
+                if diff:
+                    differing.append((strategy, n, seed, diff))
+        print(f"compare with {args.against}: {n_plans} plans on random maps "
+              f"(200-900 cells, both strategies), statuses {statuses}: "
+              f"{n_plans - len(differing)} identical, {len(differing)} differ")
+        for d in differing[:10]:
+            print("  differs:", d)
+        ref = os.path.join(args.reference_dir, "make_map.py")
+        if os.path.isfile(ref):
+            n = args.reference_size
+            raw = os.path.join(tmp, f"map{n}.raw")
+            _, _, rx, ry = (int(v) for v in _run([sys.executable, "make_map.py", raw, str(n)],
+                                                 args.reference_dir).split())
+            base = os.path.join(tmp, f"office{n}")
+            x, y = (float(v) for v in _run([sys.executable, "to_mapserver.py", raw, str(n),
+                                            base, str(rx)], args.reference_dir).split())
+            grid, info = load_map(base + ".yaml")
+            cpu = {"old": float("inf"), "new": float("inf")}
+            for _ in range(args.repeat):
+                for key, fn, params in (("old", old.plan, old.PlannerParams()),
+                                        ("new", plan, PlannerParams())):
+                    t0 = time.process_time()
+                    fn(grid, info, (x, y), params)
+                    cpu[key] = min(cpu[key], (time.process_time() - t0) * 1e3)
+            print(f"reference map {n} x {n}: CPU per plan (process_time, best of "
+                  f"{args.repeat}, alternating): {args.against} {cpu['old']:.1f} ms, "
+                  f"this tree {cpu['new']:.1f} ms")
+    return 1 if differing else 0
 
 
 def synthetic(args) -> None:

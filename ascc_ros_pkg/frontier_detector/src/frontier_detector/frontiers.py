@@ -51,6 +51,9 @@ STATUS_ROBOT_BLOCKED = "robot_not_in_free_space"   # no traversable cell near th
 STATUS_NO_FRONTIERS = "no_frontiers"               # nothing left to explore from here
 
 OFF_MAP = 50                                       # padding value, see _window_view
+# grouping: dilate the whole window's unknown cells (instead of patches around the clusters)
+# once the patches would cover more than this fraction of the window
+NEAR_FULL_FRACTION = 0.25
 
 
 @dataclass
@@ -168,27 +171,33 @@ def phase1_mask(sub: np.ndarray, neighbourhood_cells: int) -> np.ndarray:
     return _phase1(sub, neighbourhood_cells)[0]
 
 
-def _phase1(sub: np.ndarray, neighbourhood_cells: int) -> Tuple[np.ndarray, np.ndarray]:
-    """(phase-1 mask, unknown mask), both uint8 0/255."""
+def _phase1(sub: np.ndarray, neighbourhood_cells: int
+            ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(phase-1 mask, unknown mask, free mask), all uint8 0/255."""
     u8 = sub.view(np.uint8)
     free = cv2.compare(u8, FREE, cv2.CMP_EQ)
     unknown = cv2.compare(u8, UNKNOWN & 0xFF, cv2.CMP_EQ)
     size = 2 * neighbourhood_cells + 1
     near_unknown = cv2.dilate(unknown, np.ones((size, size), np.uint8),
                               borderType=cv2.BORDER_CONSTANT, borderValue=0)
-    return cv2.bitwise_and(free, near_unknown), unknown
+    return cv2.bitwise_and(free, near_unknown), unknown, free
 
 
-def traversable_mask(sub: np.ndarray, radius_cells: float) -> np.ndarray:
-    """uint8 mask (255) of FREE cells at least radius_cells from every OCCUPIED cell."""
+def traversable_mask(sub: np.ndarray, radius_cells: float,
+                     free: Optional[np.ndarray] = None) -> np.ndarray:
+    """uint8 mask (255) of FREE cells at least radius_cells from every OCCUPIED cell.
+
+    `free` (uint8 0/255 mask of sub's FREE cells) may be passed when already computed.
+    """
     u8 = sub.view(np.uint8)
-    free = cv2.compare(u8, FREE, cv2.CMP_EQ)
+    if free is None:
+        free = cv2.compare(u8, FREE, cv2.CMP_EQ)
     if radius_cells <= 0.0:
         return free
     occupied = cv2.compare(u8, OCCUPIED, cv2.CMP_EQ)
     # Cells at distance exactly radius are still allowed: dilate by a disc just inside it.
     blocked = dilate_disk(occupied, max(0.0, radius_cells - 1e-6))
-    return cv2.bitwise_and(free, cv2.bitwise_not(blocked))
+    return cv2.subtract(free, blocked)                # 255 - 255 saturates to 0
 
 
 def snap_to_mask(mask: np.ndarray, row: int, col: int, radius_cells: int
@@ -402,7 +411,9 @@ def view_goals(sub: np.ndarray, traversable: np.ndarray, unknown: np.ndarray,
         cc = base[todo, 1:] + dc.ravel()[None, :]
         inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
         flat = np.where(inside, rr * w + cc, 0)
-        occ = ((sub.ravel()[flat] == OCCUPIED) | ~inside).reshape(m, s1 - s0, n_rays)
+        # 2-D indexing: sub is a window of the grid, its ravel() would copy it.
+        occ = ((sub[np.where(inside, rr, 0), np.where(inside, cc, 0)] == OCCUPIED)
+               | ~inside).reshape(m, s1 - s0, n_rays)
         seen = np.logical_and.accumulate(~occ, axis=1)            # ray still open here
         blocked_before = np.ones_like(occ)
         blocked_before[:, 0] = ~open_rays[todo]
@@ -468,6 +479,7 @@ class Preliminary:
     window: Tuple[int, int, int, int]    # (row0, col0, rows, cols) in the full grid
     sub: np.ndarray                      # the grid inside the window (OFF_MAP padded)
     unknown: np.ndarray                  # uint8 0/255 mask of UNKNOWN cells of sub
+    free: np.ndarray                     # uint8 0/255 mask of FREE cells of sub
     rows: np.ndarray
     cols: np.ndarray
     segment: np.ndarray
@@ -512,9 +524,9 @@ def preliminary_generation(grid: np.ndarray, neighbourhood_cells: int, margin: i
         return None
     window = _aligned_window(grid.shape, window, tile)
     sub = _window_view(grid, window)
-    p1, unknown = _phase1(sub, neighbourhood_cells)
+    p1, unknown, free = _phase1(sub, neighbourhood_cells)
     rows, cols = mask_cells(p1, tile)
-    return Preliminary(window, sub, unknown, rows, cols, label_cells(rows, cols))
+    return Preliminary(window, sub, unknown, free, rows, cols, label_cells(rows, cols))
 
 
 def filtering(pre: Preliminary, robot: Tuple[int, int], resolution: float,
@@ -525,7 +537,7 @@ def filtering(pre: Preliminary, robot: Tuple[int, int], resolution: float,
     traversable cell nearby.
     """
     radius_cells = p.footprint_radius_m / resolution
-    trav = traversable_mask(pre.sub, radius_cells)
+    trav = traversable_mask(pre.sub, radius_cells, pre.free)
     snap = snap_to_mask(trav, robot[0], robot[1],
                         int(math.ceil(p.robot_snap_radius_m / resolution)))
     if snap is None:
@@ -568,7 +580,7 @@ def grouping(pre: Preliminary, filt: Filtered, resolution: float,
     near_full = None
     patch_area = (size.size * (2 * (p.goal_search_radius_m / resolution + radius_cells)) ** 2
                   + f_size.size * (2 * (p.observe_range_m / resolution + radius_cells)) ** 2)
-    if patch_area > 0.05 * pre.sub.size:
+    if patch_area > NEAR_FULL_FRACTION * pre.sub.size:
         near_full = dilate_disk(pre.unknown, max(0.0, radius_cells - 1e-6))
     # Goal: nearest cell to the centroid that is reachable and keeps the whole footprint in
     # known space (>= footprint radius from unknown cells too: the unknown just behind a
