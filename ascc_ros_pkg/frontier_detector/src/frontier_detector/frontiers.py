@@ -157,12 +157,16 @@ def dilate_disk(mask: np.ndarray, radius_cells: float) -> np.ndarray:
 
 def known_window(grid: np.ndarray, margin: int) -> Optional[Tuple[int, int, int, int]]:
     """(row0, col0, rows, cols) of the bounding box of known cells grown by margin, or None."""
-    known = cv2.compare(grid.view(np.uint8), 255, cv2.CMP_NE)     # int8 -1 is uint8 255
-    x, y, w, h = cv2.boundingRect(known)
-    if w == 0 or h == 0:
+    # int8 -1 is uint8 255: a row (column) holds a known cell iff its minimum is below 255.
+    # Two numpy reductions run several times faster than a mask and cv2.boundingRect.
+    u8 = grid.view(np.uint8)
+    rows = np.flatnonzero(u8.min(axis=1) != 255)
+    if rows.size == 0:
         return None
-    r0, c0 = max(0, y - margin), max(0, x - margin)
-    r1, c1 = min(grid.shape[0], y + h + margin), min(grid.shape[1], x + w + margin)
+    cols = np.flatnonzero(u8.min(axis=0) != 255)
+    r0, c0 = max(0, int(rows[0]) - margin), max(0, int(cols[0]) - margin)
+    r1 = min(grid.shape[0], int(rows[-1]) + 1 + margin)
+    c1 = min(grid.shape[1], int(cols[-1]) + 1 + margin)
     return r0, c0, r1 - r0, c1 - c0
 
 

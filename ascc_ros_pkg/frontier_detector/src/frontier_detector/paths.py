@@ -20,7 +20,6 @@ import math
 from dataclasses import dataclass
 from typing import Tuple
 
-import cv2
 import numpy as np
 
 # Public (ascc_eval.offline walks the same graph): DR, DC are the row and column steps of
@@ -78,7 +77,12 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
     sp = np.zeros((hc + 2, wc + 2), bool)
     if hc > 1:
         cross = t[k - 1: h - 1: k, :] & t[k:: k, :]
-        sp[1:-2, 1:-1] = _row_max(cross.reshape(-1, k)).reshape(hc - 1, wc) > 0
+        # Any of each block's k columns: OR of k strided views (several times faster than
+        # a maximum over a short last axis).
+        any_col = cross[:, 0::k].copy()
+        for j in range(1, k):
+            any_col |= cross[:, j::k]
+        sp[1:-2, 1:-1] = any_col > 0
     # Padding by one block on every side keeps neighbour indices from wrapping around.
     west = _shift(ep, 0, -1)
     north = _shift(sp, -1, 0)
@@ -91,14 +95,6 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
     for bit, m in enumerate((ep, west, sp, north, se, sw, ne, nw)):
         allow |= m.astype(np.uint8) << np.uint8(bit)
     return CoarseGraph(k, (hc + 2, wc + 2), allow.ravel())
-
-
-def _row_max(a: np.ndarray) -> np.ndarray:
-    """Maximum of each row of a 2-D array (OpenCV's reduce for uint8: numpy's max over a
-    short last axis is several times slower)."""
-    if a.dtype == np.uint8 and a.shape[0] > 0:
-        return cv2.reduce(a, 1, cv2.REDUCE_MAX)[:, 0]
-    return a.max(axis=1)
 
 
 def _shift(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
