@@ -235,8 +235,14 @@ def mask_cells(mask: np.ndarray, block: int) -> Tuple[np.ndarray, np.ndarray]:
     if block <= 1 or h % block or w % block:
         rr, cc = np.nonzero(mask)
         return rr.astype(np.int64), cc.astype(np.int64)
-    # Area averaging of 0/255 over a tile is > 0 iff the tile holds a nonzero cell.
-    tiles = cv2.resize(mask, (w // block, h // block), interpolation=cv2.INTER_AREA)
+    # OR over the tile's rows, then over its columns (strided views; faster than
+    # cv2.resize's area averaging): nonzero iff the tile holds a nonzero cell.
+    rows_or = mask[0::block].copy()
+    for j in range(1, block):
+        rows_or |= mask[j::block]
+    tiles = rows_or[:, 0::block].copy()
+    for j in range(1, block):
+        tiles |= rows_or[:, j::block]
     tr, tc = np.nonzero(tiles)
     oy, ox = np.divmod(np.arange(block * block), block)
     rr = (tr[:, None] * block + oy[None, :]).ravel()

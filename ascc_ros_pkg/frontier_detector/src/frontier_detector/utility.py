@@ -94,6 +94,15 @@ def ray_offsets(resolution: float, params: UtilityParams):
     return dr, dc, area
 
 
+def _first_true(a: np.ndarray) -> np.ndarray:
+    """Index of the first True along the last axis, a.shape[-1] where there is none (one
+    argmax pass and a gather, instead of an extra any() pass)."""
+    first = a.argmax(axis=-1)
+    none = ~np.take_along_axis(a, first[..., None], axis=-1)[..., 0]
+    first[none] = a.shape[-1]
+    return first
+
+
 def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.ndarray,
               params: UtilityParams):
     """Ray cast from candidate cells; returns (U_I, U_L), one value per candidate.
@@ -130,8 +139,8 @@ def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.nd
     stop = (vals == OCCUPIED) | (vals == off_map)
     unknown = vals == UNKNOWN
     # Index of the first stopping sample on each ray (n_steps if none).
-    first_stop = np.where(stop.any(axis=2), stop.argmax(axis=2), n_steps)
-    first_unknown = np.where(unknown.any(axis=2), unknown.argmax(axis=2), n_steps)
+    first_stop = _first_true(stop)
+    first_unknown = _first_true(unknown)
     step = np.arange(n_steps)
     seen_unknown = unknown & (step[None, None, :] < first_stop[..., None])
     info = (seen_unknown.reshape(n, -1, n_steps).astype(np.float32) @ area.astype(np.float32)
