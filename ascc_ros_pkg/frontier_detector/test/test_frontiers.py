@@ -321,3 +321,46 @@ def test_grouping_gives_one_reachable_goal_per_cluster():
     assert abs(groups.centroids[0, 0] + r0 - 34.5) < 1e-9
     whole = find_frontiers(g, RES, (30, 20), p)
     assert np.array_equal(whole.goals_rc, groups.goals + [r0, c0])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_known_window_is_the_bounding_box_of_known_cells(seed):
+    from frontier_detector.frontiers import known_window
+    rng = np.random.default_rng(seed)
+    g = np.full((70, 90), UNKNOWN, np.int8)
+    r0, c0 = rng.integers(0, 40), rng.integers(0, 50)
+    patch = rng.choice(np.array([FREE, OCCUPIED, UNKNOWN], np.int8), size=(20, 30))
+    patch[0, 0] = patch[-1, -1] = FREE                        # the box's corners are known
+    g[r0: r0 + 20, c0: c0 + 30] = patch
+    x, y, w, h = cv2.boundingRect((g != UNKNOWN).astype(np.uint8))
+    for margin in (0, 3, 60):
+        rr0, cc0 = max(0, y - margin), max(0, x - margin)
+        rr1, cc1 = min(70, y + h + margin), min(90, x + w + margin)
+        assert known_window(g, margin) == (rr0, cc0, rr1 - rr0, cc1 - cc0)
+    assert known_window(np.full((5, 5), UNKNOWN, np.int8), 2) is None
+
+
+@pytest.mark.parametrize("seed", [1, 2, 5])    # maps with view points
+def test_grouping_same_goals_with_patches_or_whole_window(seed, monkeypatch):
+    """The unknown-near test on patches and on the whole window are two ways to the same
+    answer (which one runs depends on NEAR_FULL_FRACTION): identical goals."""
+    import frontier_detector.frontiers as fr
+    from frontier_detector.synthetic import (
+        first_free_cell_near,
+        office_building,
+        partially_explored,
+    )
+    truth = office_building(25.0, RES, seed=seed)
+    n = truth.shape[0]
+    robot = first_free_cell_near(truth, n // 2, n // 2)
+    g = partially_explored(truth, robot, 0.35 * n, seed=seed, unknown_rooms=6, room_cells=60)
+    p = FrontierParams()
+    out = []
+    for fraction in (0.0, 1e9):
+        monkeypatch.setattr(fr, "NEAR_FULL_FRACTION", fraction)
+        out.append(find_frontiers(g, RES, robot, p))
+    a, b = out
+    assert a.status == STATUS_OK and a.n_candidates > 3
+    assert a.observe_only.any()                               # view points searched too
+    for name in ("goals_rc", "centroids_rc", "cluster_cells", "observe_only", "phase2_cluster"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name

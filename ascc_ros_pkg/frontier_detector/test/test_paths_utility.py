@@ -279,3 +279,16 @@ def test_min_info_gain_rule():
     # nearest ignores the rule (pure nearest frontier).
     assert score_candidates(g, RES, rows, cols, np.array([1.0]), np.array([5]), p,
                             strategy="nearest").best == 0
+
+
+def test_first_true_along_the_last_axis():
+    from frontier_detector.utility import _first_true
+    rng = np.random.default_rng(3)
+    a = rng.random((7, 11, 13)) < 0.08
+    a[0, 0] = False
+    a[1, 2, -1] = True
+    a[1, 2, :-1] = False
+    expect = np.where(a.any(axis=2), a.argmax(axis=2), 13)
+    got = _first_true(a)
+    assert np.array_equal(got, expect)
+    assert got[0, 0] == 13 and got[1, 2] == 12
