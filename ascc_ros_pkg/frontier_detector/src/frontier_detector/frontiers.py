@@ -366,7 +366,7 @@ def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndar
     rr = base[:, :1] + (oy - half)[None, :]                  # (n, side * side)
     cc = base[:, 1:] + (ox - half)[None, :]
     inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-    flat = np.clip(rr, 0, h - 1) * w + np.clip(cc, 0, w - 1)
+    flat = np.where(inside, rr * w + cc, 0)          # cells outside are masked below
     if near_unknown is not None:
         near = near_unknown.ravel()[flat]
     else:
