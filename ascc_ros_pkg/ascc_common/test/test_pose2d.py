@@ -42,3 +42,11 @@ def test_yaw_quaternion_round_trip(yaw):
     assert P.yaw_from_quaternion(*q) == pytest.approx(yaw)
     assert P.yaw_of(Quat(*q)) == pytest.approx(yaw)
     assert np.allclose(P.z_axis_from_quaternion(*q), (0.0, 0.0, 1.0))
+
+
+@pytest.mark.parametrize("theta", [0.0, 3.0, -3.0, math.pi, -math.pi, 7.5, -7.5, 1e3,
+                                   -1e3, 2 * math.pi, 1e-17])
+def test_scalar_wrap_matches_the_array_wrap(theta):
+    scalar = P.wrap_angle(theta)
+    assert isinstance(scalar, float)
+    assert scalar == float(P.wrap_angle(np.array([theta]))[0])

@@ -241,11 +241,3 @@ def test_event_key_changes_with_a_bump_not_with_odometry():
     assert core.event_key() == key
     core.on_bytes(frame(0, 0, bumps=oi.BUMP_LEFT), now=0.03)
     assert core.event_key() != key
-
-
-@pytest.mark.parametrize("theta", [0.0, 3.0, -3.0, math.pi, -math.pi, 7.5, -7.5, 1e3,
-                                   -1e3, 2 * math.pi, 1e-17])
-def test_scalar_wrap_matches_the_shared_wrap_angle(theta):
-    from ascc_common.pose2d import wrap_angle
-    from irobot_create_2_1.odometry import wrap
-    assert wrap(theta) == wrap_angle(theta)

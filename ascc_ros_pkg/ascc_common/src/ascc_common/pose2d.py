@@ -17,6 +17,10 @@ import numpy as np
 
 def wrap_angle(theta):
     """Wrap angles [rad] to [-pi, pi); a float for a scalar, an array for an array."""
+    if isinstance(theta, (float, int)):
+        # a Python scalar without numpy's round trip (same formula and result): the
+        # driver's odometry calls this once per 15 ms stream frame
+        return (float(theta) + math.pi) % (2.0 * math.pi) - math.pi
     wrapped = (np.asarray(theta, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi
     return float(wrapped) if wrapped.ndim == 0 else wrapped
 

@@ -7,13 +7,7 @@ backwards gives a negative distance and moves x backwards (Brown's driver got th
 import math
 from typing import List, Tuple
 
-TWO_PI = 2.0 * math.pi
-
-
-def wrap(theta: float) -> float:
-    """A scalar angle wrapped to [-pi, pi), as ``ascc_common.pose2d.wrap_angle`` (same
-    formula and result) without its numpy round trip: it runs once per 15 ms frame."""
-    return (theta + math.pi) % TWO_PI - math.pi
+from ascc_common.pose2d import wrap_angle
 
 
 def integrate_arc(x: float, y: float, theta: float, distance_m: float,
@@ -49,7 +43,7 @@ class Odometry:
         if not (math.isfinite(distance_m) and math.isfinite(dtheta_rad)):
             raise ValueError("non-finite odometry increment")
         x, y, theta = integrate_arc(self.x, self.y, self.theta, distance_m, dtheta_rad)
-        self.x, self.y, self.theta = x, y, wrap(theta)
+        self.x, self.y, self.theta = x, y, wrap_angle(theta)
         d, a = abs(distance_m), abs(dtheta_rad)
         self.travel_m += d
         self.turn_rad += a

@@ -21,14 +21,14 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
 from ascc_common.params import from_params
-from ascc_common.pose2d import quaternion_from_yaw
+from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
 from ascc_common.throttle import Throttle
 from irobot_create_2_1 import protocol, sensor_state
 from irobot_create_2_1.driver_core import CreateDriverCore, DriverParams
 from irobot_create_2_1.link import SerialLink
 from irobot_create_2_1.models import model as robot_model
 from irobot_create_2_1.msg import Hazards, LightBumper, SensorPacket
-from irobot_create_2_1.odometry import twist_covariance, wrap
+from irobot_create_2_1.odometry import twist_covariance
 from irobot_create_2_1.srv import (
     Brake,
     BrakeResponse,
@@ -305,7 +305,7 @@ class CreateDriverNode:
             if dt > 0:
                 msg.twist.twist.linear.x = ((x - x0) * math.cos(th0)
                                             + (y - y0) * math.sin(th0)) / dt
-                msg.twist.twist.angular.z = wrap(theta - th0) / dt
+                msg.twist.twist.angular.z = wrap_angle(theta - th0) / dt
         msg.twist.covariance = twist_covariance()
         self.last_pose = (now, x, y, theta)
         self.odom_pub.publish(msg)
