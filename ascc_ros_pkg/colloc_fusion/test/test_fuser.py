@@ -131,3 +131,51 @@ def test_core_gate_reports_the_inconsistent_robot():
     fused, left = c.step(1.0)
     assert fused.robots == ["robotA", "robotB"] and "inconsistent" in left["robotC"]
     assert "robotC" in c.status(1.0, fused, left)["left_out"]
+
+
+def test_core_gate_memory_keeps_a_blamed_robot_out_of_two():
+    """robotC, left out by a vote of three, stays out while only robotA and robotC are in
+    the window and disagree, for gate_memory_s; after it, of two neither can be blamed."""
+    c = core(gate_chi2=13.8, gate_memory_s=5.0, window_s=1.0)
+    for r, x in (("robotA", 1.0), ("robotB", 1.05), ("robotC", 2.5)):
+        c.add(est(r, 1.0, x=x), 1.0)
+    fused, left = c.step(1.0)
+    assert fused.robots == ["robotA", "robotB"] and "robotC" in left
+    for t in (2.5, 5.5):  # robotB silent: stale from 2.0 on
+        c.add(est("robotA", t, x=1.0), t)
+        c.add(est("robotC", t, x=2.5), t)
+        fused, left = c.step(t)
+        assert fused.robots == ["robotA"], t
+        assert "inconsistent with robot robotA" in left["robotC"] and "ago" in left["robotC"]
+        assert "stale" in left["robotB"]
+    c.add(est("robotA", 6.5, x=1.0), 6.5)
+    c.add(est("robotC", 6.5, x=2.5), 6.5)
+    fused, left = c.step(6.5)  # 5.5 s after the vote: the memory is over
+    assert fused.robots == ["robotA", "robotC"] and "robotC" not in left
+
+
+def test_core_gate_memory_needs_disagreement_and_is_cleared_by_a_vote():
+    c = core(gate_chi2=13.8, gate_memory_s=30.0, window_s=1.0)
+    for r, x in (("robotA", 1.0), ("robotB", 1.05), ("robotC", 2.5)):
+        c.add(est(r, 1.0, x=x), 1.0)
+    c.step(1.0)
+    c.add(est("robotA", 2.5, x=1.0), 2.5)
+    c.add(est("robotC", 2.5, x=1.02), 2.5)  # back in place: agrees with robotA
+    fused, left = c.step(2.5)
+    assert fused.robots == ["robotA", "robotC"]
+    for r, x in (("robotA", 1.0), ("robotB", 1.05), ("robotC", 1.02)):
+        c.add(est(r, 3.0, x=x), 3.0)
+    fused, _ = c.step(3.0)  # a vote of three keeps robotC: no longer a suspect
+    assert fused.robots == ["robotA", "robotB", "robotC"] and c.blamed == {}
+    c.add(est("robotA", 4.5, x=1.0), 4.5)
+    c.add(est("robotC", 4.5, x=2.5), 4.5)
+    fused, left = c.step(4.5)  # off again, but only two: neither can be blamed
+    assert fused.robots == ["robotA", "robotC"]
+
+
+def test_core_no_gate_no_memory():
+    c = core(gate_chi2=0.0, gate_memory_s=30.0)
+    for r, x in (("robotA", 1.0), ("robotB", 1.05), ("robotC", 2.5)):
+        c.add(est(r, 1.0, x=x), 1.0)
+    fused, left = c.step(1.0)
+    assert fused.robots == ["robotA", "robotB", "robotC"] and c.blamed == {}

@@ -118,22 +118,42 @@ def associate(latest: Dict[str, TargetEstimate], now_s: float, window_s: float,
     return ok, left
 
 
-def consistency_gate(estimates: List[TargetEstimate], chi2_max: float
+def _mahalanobis2(est: TargetEstimate, others: List[TargetEstimate]) -> float:
+    """Squared Mahalanobis distance of ``est`` to the information fusion of ``others``,
+    with covariance P_est + P_others."""
+    mean, cov = information_fuse([o.mean for o in others], [o.cov for o in others])
+    d = est.mean - mean
+    return float(d @ np.linalg.solve(cov + np.asarray(est.cov, dtype=float), d))
+
+
+def consistency_gate(estimates: List[TargetEstimate], chi2_max: float,
+                     suspects: Optional[Dict[str, str]] = None
                      ) -> Tuple[List[TargetEstimate], Dict[str, str]]:
     """Leave out, one at a time, the estimate that disagrees most with the others while it
     disagrees beyond ``chi2_max``: the squared Mahalanobis distance between an estimate and
     the information fusion of the others, with covariance P_i + P_others (13.8: the 99.9 %
-    quantile of chi-square with 2 degrees of freedom). Needs three estimates or more (of
-    two, neither can be blamed); ``chi2_max`` <= 0: no gate."""
+    quantile of chi-square with 2 degrees of freedom). Needs three estimates or more: of
+    two that disagree, neither can be blamed by this test, unless exactly one of them is
+    in ``suspects`` (robot -> why: a robot an earlier vote of three left out, see
+    ``FusionCore``), which is then left out. ``chi2_max`` <= 0: no gate."""
     kept = list(estimates)
     left: Dict[str, str] = {}
+    if chi2_max > 0.0 and len(kept) == 2 and suspects:
+        blamed = [e for e in kept if e.robot in suspects]
+        if len(blamed) == 1:
+            e = blamed[0]
+            other = kept[1] if e is kept[0] else kept[0]
+            d2 = _mahalanobis2(e, [other])
+            if d2 > chi2_max:
+                kept.remove(e)
+                left[e.robot] = "robot %s: inconsistent with robot %s (Mahalanobis d^2 " \
+                    "%.1f > %.1f) and %s: left out" % (e.robot, other.robot, d2, chi2_max,
+                                                      suspects[e.robot])
+        return kept, left
     while chi2_max > 0.0 and len(kept) >= 3:
         worst, worst_d2 = None, -1.0
         for e in kept:
-            others = [o for o in kept if o is not e]
-            mean, cov = information_fuse([o.mean for o in others], [o.cov for o in others])
-            d = e.mean - mean
-            d2 = float(d @ np.linalg.solve(cov + np.asarray(e.cov, dtype=float), d))
+            d2 = _mahalanobis2(e, [o for o in kept if o is not e])
             if d2 > worst_d2:
                 worst, worst_d2 = e, d2
         if worst is None or worst_d2 <= chi2_max:

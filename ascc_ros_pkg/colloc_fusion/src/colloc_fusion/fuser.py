@@ -20,6 +20,9 @@ class FusionCore:
         self.robots = tuple(params.robot_list())
         self.latest: Dict[str, TargetEstimate] = {}
         self.clocks = ClockOffsets(params.clock_samples, params.max_clock_offset_s)
+        # robot -> time [s] the gate last left it out by a vote of three or more: such a
+        # robot stays out, for gate_memory_s, of a fusion of two that it disagrees with
+        self.blamed: Dict[str, Tuple[float, int]] = {}
 
     def add(self, est: TargetEstimate, received_s: float) -> Optional[str]:
         """Store ``est`` as its robot's newest; a reason naming the robot when it is bad
@@ -38,7 +41,16 @@ class FusionCore:
         left out with why."""
         ok, left = associate(self.latest, now_s, self.p.window_s, self.p.future_tolerance_s,
                              self.p.map_frame, self.robots, self.clocks)
-        ok, inconsistent = consistency_gate(ok, self.p.gate_chi2)
+        suspects = {r: "the gate left it out of %d robots %.1f s ago" % (n, now_s - t)
+                    for r, (t, n) in self.blamed.items()
+                    if 0.0 <= now_s - t <= self.p.gate_memory_s}
+        voters = len(ok)
+        ok, inconsistent = consistency_gate(ok, self.p.gate_chi2, suspects)
+        if voters >= 3:  # a vote: remember who it left out, clear those it kept
+            for e in ok:
+                self.blamed.pop(e.robot, None)
+            for r in inconsistent:
+                self.blamed[r] = (now_s, voters)
         left.update(inconsistent)
         if not ok:
             return None, left

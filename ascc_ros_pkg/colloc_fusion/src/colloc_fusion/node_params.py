@@ -60,6 +60,10 @@ class FusionParams:
     gate_chi2: float = param(0.0, "[1] with 3+ robots, leave out one whose squared "
                                   "Mahalanobis distance to the others exceeds this (13.8: "
                                   "99.9 % for 2 dof; 0: no gate, as the thesis)", ge=0.0)
+    gate_memory_s: float = param(10.0, "[s] a robot the gate left out of three or more "
+                                       "stays out this long of a fusion of two it "
+                                       "disagrees with (beyond gate_chi2); 0: no memory",
+                                 ge=0.0)
     map_frame: str = param("map", "frame of the estimates and of the fused target")
     ellipse_sigma: float = param(2.0, "[1] the drawn ellipses' size in standard deviations",
                                  gt=0.0)
