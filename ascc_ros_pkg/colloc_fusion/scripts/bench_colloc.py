@@ -6,9 +6,10 @@
 
 Trial 0 is the placement of worlds/three_robots.yaml; trials 1..N place the cone and the
 three robots at random (colloc_fusion.bench.random_placement, seeded). Each trial runs
-launch/sim/colloc.launch (centralized, thesis method; own master on its own port) in a
-child process that records every robot's target_estimate and the node's fused_target
-between sim time settle_s and settle_s + record_s, and the cone's true position
+launch/sim/colloc.launch (centralized, thesis method without the gate: gate_chi2:=0; own
+master on its own port) in a child process that records every robot's target_estimate
+and the node's fused_target between sim time settle_s and settle_s + record_s, and the
+cone's true position
 (ground_truth/objects: evaluation only). The errors of each robot alone and of each fusion
 method, without and with the consistency gate (``gate_chi2`` 13.8), are then replayed
 offline on the same estimates (colloc_fusion.bench.replay_errors) and summarised: per
@@ -112,6 +113,7 @@ def record(args):
            "seed:=%d" % args.sim_seed,
            "truth_xy_m:=[%.4f, %.4f]" % tuple(to_map.apply(p["cone"])),
            "refine_pose:=%s" % ("true" if args.refine == "on" else "false"),
+           "gate_chi2:=0.0",  # the node records the thesis rule; the gate is replayed
            "map_topic:=" + (SLAM_MAP_TOPIC if args.map_yaml else "/ground_truth/map")]
     cmd += ["%s_pose:=%.4f %.4f %.4f" % ((r,) + tuple(to_map.apply_pose(p["robots"][r])))
             for r in ROBOTS]
