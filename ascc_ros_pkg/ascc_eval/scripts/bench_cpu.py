@@ -23,8 +23,13 @@ under simulated time: its share is what every rospy node of the run pays for bei
 exists on the robot, where there is no /clock. A node's own work is its share minus
 about that floor.
 
+The measuring nodes must not make the robot's nodes work: without --record there is no
+bag recorder (whose subscriptions to /tf, odom, scan and map cost the driver and the mapper
+a connection each), and the exploration monitor leaves /tf once it has the laser's mount.
+
     rosrun ascc_eval bench_cpu.py [--duration-s 600] [--world corridor] [--rtf 1]
         [--strategy utility] [--seed 0] [--window-s 60] [--warmup-s 20] [--out DIR]
+        [--record]
 """
 import argparse
 import json
@@ -197,6 +202,9 @@ def main() -> int:
     ap.add_argument("--warmup-s", type=float, default=20.0,
                     help="wall seconds after the first sample left out (start-up)")
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_cpu"))
+    ap.add_argument("--record", action="store_true",
+                    help="also record run.bag (explore_demo.launch's bag_recorder): its "
+                         "subscriptions make the driver and the mapper send more")
     args = ap.parse_args()
     run_dir = os.path.join(args.out, "%s_%s_seed%d" % (args.world, args.strategy, args.seed))
     os.makedirs(run_dir, exist_ok=True)
@@ -205,7 +213,7 @@ def main() -> int:
     cmd = ["roslaunch", "-p", str(port), os.path.join(ROOT, "launch", "explore_demo.launch"),
            "world:=%s" % args.world, "strategy:=%s" % args.strategy, "seed:=%d" % args.seed,
            "real_time_factor:=%s" % args.rtf, "output_dir:=%s" % run_dir,
-           "max_time_s:=%g" % args.duration_s]
+           "max_time_s:=%g" % args.duration_s, "record:=%s" % str(args.record).lower()]
     load0 = os.getloadavg()
     print("%s: %s for %.0f s simulated at rtf %s, load average %.1f %.1f %.1f"
           % (args.world, args.strategy, args.duration_s, args.rtf, *load0))

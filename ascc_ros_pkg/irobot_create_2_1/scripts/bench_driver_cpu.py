@@ -9,12 +9,21 @@ after --warmup-s it samples /proc/<pid>/stat of the driver and the probe for --d
 probe's share is the floor every rospy node pays under simulated time (its /clock
 subscription at the simulator's 100 Hz, rospy's threads); on the robot there is no /clock.
 
+--tf-listeners N adds N idle nodes listening to TF (a tf2 Buffer and TransformListener, as
+the mapper, the navigator and the explorer each have: 3 in the exploration stack): the
+driver's odom -> base_link transforms go to each, and rospy writes to every subscriber
+from its own thread.
+
+--robot runs no simulator: the virtual Create (virtual_create.launch) on wall time, the
+driver from create.launch, nothing on /clock: the conditions on the robot, where the
+serial stream is the only clock. The probe's share is then rospy's own floor.
+
 With --compare REV, a second simulator on another port runs the driver node of git
 revision REV (its `ros/driver_node.py`, on this tree's other modules) at the same time, so
 both see the same machine load; its share is printed beside.
 
     python3 ascc_ros_pkg/irobot_create_2_1/scripts/bench_driver_cpu.py [--duration-s 90]
-        [--world corridor] [--rtf 1] [--compare 525e5cb]
+        [--world corridor] [--rtf 1] [--compare 525e5cb] [--tf-listeners 3] [--robot]
 """
 import argparse
 import os
@@ -37,6 +46,20 @@ msg = Twist(); msg.angular.z = 0.3
 rate = rospy.Rate(float(sys.argv[1]))
 while not rospy.is_shutdown():
     pub.publish(msg); rate.sleep()
+"""
+TF_LISTENER_CODE = """import rospy, tf2_ros
+rospy.init_node('tf_listener', anonymous=True)
+buf = tf2_ros.Buffer(); listener = tf2_ros.TransformListener(buf)
+rospy.spin()
+"""
+ROBOT_LAUNCH = """<launch>
+  <include file="$(find irobot_create_2_1)/launch/virtual_create.launch">
+    <arg name="link" value="%(link)s"/>
+  </include>
+  <include file="$(find irobot_create_2_1)/launch/create.launch">
+    <arg name="port" value="%(link)s"/>
+  </include>
+</launch>
 """
 OLD_DRIVER_CODE = """import importlib.util, sys
 spec = importlib.util.spec_from_file_location('driver_node_rev', sys.argv[1])
@@ -83,8 +106,8 @@ def cpu_s(pid: int):
     return (int(fields[11]) + int(fields[12])) / TICK
 
 
-def find_driver(root_pid: int):
-    """pid of the `driver` node below a roslaunch process, or None."""
+def find_driver(root_pid: int, name: bytes = b"driver"):
+    """pid of the driver node (``__name:=name``) below a roslaunch process, or None."""
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
             continue
@@ -95,7 +118,7 @@ def find_driver(root_pid: int):
                 ppid = int(f.read().rsplit(")", 1)[1].split()[1])
         except OSError:
             continue
-        if ppid == root_pid and b"__name:=driver" in args:
+        if ppid == root_pid and b"__name:=" + name in args:
             return int(entry)
     return None
 
@@ -114,6 +137,14 @@ def start_runs(args, world, tmp, log, procs):
     driver node: [(label, master port, roslaunch process, driver pid or None)]; None if a
     simulator did not come up. Every process started is appended to procs."""
     port = free_port()
+    if args.robot:
+        path = os.path.join(tmp, "robot.launch")
+        with open(path, "w") as f:
+            f.write(ROBOT_LAUNCH % {"link": os.path.join(tmp, "create.pty")})
+        robot = subprocess.Popen(["roslaunch", "-p", str(port), path], env=env_for(port),
+                                 stdout=log, stderr=subprocess.STDOUT)
+        procs.append(robot)
+        return [("driver (this tree, no simulator)", port, robot, None)]
     sim = start_sim(port, world, args.rtf, os.path.join(tmp, "a"), log)
     procs.append(sim)
     runs = [("driver (this tree)", port, sim, None)]
@@ -149,7 +180,13 @@ def main() -> int:
     ap.add_argument("--rtf", default="1", help="the simulator's real-time factor cap")
     ap.add_argument("--cmd-rate-hz", type=float, default=10.0)
     ap.add_argument("--compare", metavar="REV", help="also run REV's driver node alongside")
+    ap.add_argument("--tf-listeners", type=int, default=0,
+                    help="idle TF listener nodes beside each driver (3 in the stack)")
+    ap.add_argument("--robot", action="store_true",
+                    help="no simulator: the virtual Create on wall time (as on the robot)")
     args = ap.parse_args()
+    if args.robot and args.compare:
+        ap.error("--compare needs the simulator (not with --robot)")
     world = os.path.join(TOP, "ascc_ros_pkg", "ascc_sim", "worlds", args.world + ".yaml")
     tmp = tempfile.mkdtemp(prefix="bench_driver_cpu_")
     procs = []
@@ -161,7 +198,8 @@ def main() -> int:
             return 1
         probes = []
         for _, p, _, _ in runs:
-            for code, extra in ((PROBE_CODE, []), (TWIST_CODE, [str(args.cmd_rate_hz)])):
+            for code, extra in ([(TF_LISTENER_CODE, [])] * args.tf_listeners
+                                + [(PROBE_CODE, []), (TWIST_CODE, [str(args.cmd_rate_hz)])]):
                 procs.append(subprocess.Popen([sys.executable, "-c", code] + extra,
                                               env=env_for(p), stdout=log,
                                               stderr=subprocess.STDOUT))
@@ -169,7 +207,8 @@ def main() -> int:
         time.sleep(args.warmup_s)
         pids = []
         for (name, _, launch, pid), probe in zip(runs, probes):
-            pid = pid or find_driver(launch.pid)
+            pid = pid or find_driver(launch.pid,
+                                     b"irobot_create_2_1" if args.robot else b"driver")
             if pid is None:
                 print("no driver process found for %s; see %s" % (name, log.name))
                 return 1
@@ -180,8 +219,10 @@ def main() -> int:
         time.sleep(args.duration_s)
         c1 = [cpu_s(pid) for _, pid in pids]
         wall = time.time() - t0
-        print("%s, rtf %s, %.0f s wall, cmd_vel %.0f Hz, load average %.1f -> %.1f"
-              % (args.world, args.rtf, wall, args.cmd_rate_hz, load0[0], os.getloadavg()[0]))
+        print("%s, %.0f s wall, cmd_vel %.0f Hz, %d TF listener(s), load average %.1f -> %.1f"
+              % ("no simulator (wall time)" if args.robot else
+                 "%s, rtf %s" % (args.world, args.rtf), wall, args.cmd_rate_hz,
+                 args.tf_listeners, load0[0], os.getloadavg()[0]))
         for (name, _), a, b in zip(pids, c0, c1):
             share = "gone" if a is None or b is None else "%.2f %%" % (100.0 * (b - a) / wall)
             print("  %-28s %s of one core" % (name, share))

@@ -183,6 +183,9 @@ class Monitor:
                 self.record.set_laser(laser)
                 self.laser_set = True
                 self.scan_sub.unregister()
+                # The laser's mount was all it needed TF for: stay off /tf, whose 30 Hz
+                # odometry transforms would otherwise cost the driver a connection.
+                self.tf_listener.unregister()
                 rospy.loginfo("exploration_monitor: seen coverage with %s" % (laser,))
         pose = self._map_pose()
         for t, x, y, yaw in poses:
