@@ -291,30 +291,36 @@ class CreateDriverNode:
             self.light_pub.publish(msg)
 
     def publish_odom(self, now, x, y, theta, pose_cov, stamp=None):
-        """Odometry (and TF) at ``now`` [s] (``stamp``: the same as a rospy.Time)."""
-        msg = Odometry()
-        msg.header.stamp = rospy.Time.from_sec(now) if stamp is None else stamp
-        msg.header.frame_id = self.odom_frame
-        msg.child_frame_id = self.base_frame
-        msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
-        msg.pose.pose.orientation = Quaternion(*quaternion_from_yaw(theta))
-        msg.pose.covariance = pose_cov
-        if self.last_pose is not None:
-            t0, x0, y0, th0 = self.last_pose
-            dt = now - t0
-            if dt > 0:
-                msg.twist.twist.linear.x = ((x - x0) * math.cos(th0)
-                                            + (y - y0) * math.sin(th0)) / dt
-                msg.twist.twist.angular.z = wrap_angle(theta - th0) / dt
-        msg.twist.covariance = twist_covariance()
-        self.last_pose = (now, x, y, theta)
-        self.odom_pub.publish(msg)
+        """Odometry (and TF) at ``now`` [s] (``stamp``: the same as a rospy.Time). The
+        Odometry message is built only while someone subscribes to it (in the exploration
+        stack no node does: they all read TF)."""
+        stamp = rospy.Time.from_sec(now) if stamp is None else stamp
+        orientation = Quaternion(*quaternion_from_yaw(theta))
+        last, self.last_pose = self.last_pose, (now, x, y, theta)
+        if self.odom_pub.get_num_connections() > 0:
+            msg = Odometry()
+            msg.header.stamp = stamp
+            msg.header.frame_id = self.odom_frame
+            msg.child_frame_id = self.base_frame
+            msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+            msg.pose.pose.orientation = orientation
+            msg.pose.covariance = pose_cov
+            if last is not None:
+                t0, x0, y0, th0 = last
+                dt = now - t0
+                if dt > 0:
+                    msg.twist.twist.linear.x = ((x - x0) * math.cos(th0)
+                                                + (y - y0) * math.sin(th0)) / dt
+                    msg.twist.twist.angular.z = wrap_angle(theta - th0) / dt
+            msg.twist.covariance = twist_covariance()
+            self.odom_pub.publish(msg)
         if self.publish_tf:
             t = TransformStamped()
-            t.header = msg.header
+            t.header.stamp = stamp
+            t.header.frame_id = self.odom_frame
             t.child_frame_id = self.base_frame
             t.transform.translation.x, t.transform.translation.y = x, y
-            t.transform.rotation = msg.pose.pose.orientation
+            t.transform.rotation = orientation
             self.tf_pub.sendTransform(t)
 
     # --- commands -------------------------------------------------------------------------
