@@ -13,13 +13,14 @@ xvfb imagemagick`). Exits 1 if any screenshot failed.
 import argparse
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
 import xmlrpc.client
 
 import yaml
+
+from ascc_common.ports import free_port
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -32,14 +33,6 @@ def load_specs():
     for name, spec in specs.items():
         spec.setdefault("config", name)
     return specs
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def isolated_env():

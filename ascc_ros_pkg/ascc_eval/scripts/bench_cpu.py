@@ -35,11 +35,11 @@ import argparse
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
 
+from ascc_common.ports import free_port
 from ascc_eval.launching import loopback_env
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
@@ -51,12 +51,6 @@ TICK = os.sysconf("SC_CLK_TCK")
 PROBE = "cpu_probe"
 PROBE_CODE = "import rospy; rospy.init_node('%s'); rospy.spin()" % PROBE
 PAGE = os.sysconf("SC_PAGE_SIZE")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
 
 
 def read_stat(pid: int):

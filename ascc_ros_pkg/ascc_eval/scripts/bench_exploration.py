@@ -34,6 +34,7 @@ import json
 import os
 import sys
 
+from ascc_common.ports import free_port
 from ascc_eval.launching import run_launch
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
@@ -218,10 +219,12 @@ def main(argv=None):
     ap.add_argument("--timeout-s", type=int, default=3600, help="wall-clock limit per run")
     ap.add_argument("--max-time-s", type=float, default=4000.0,
                     help="simulated time after which a run gives up (the monitor ends it)")
-    ap.add_argument("--port", type=int, default=11411, help="ROS master port of the runs")
+    ap.add_argument("--port", type=int, default=0,
+                    help="ROS master port of the runs (0: a free one)")
     ap.add_argument("--report-only", action="store_true",
                     help="no runs: print the table of OUT/results.json and redraw the plots")
     args = ap.parse_args(argv)
+    args.port = args.port or free_port()
     os.makedirs(args.out, exist_ok=True)
     table = os.path.join(args.out, "results.json")
     results = []

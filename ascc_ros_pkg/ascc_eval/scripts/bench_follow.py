@@ -25,6 +25,7 @@ import json
 import os
 import sys
 
+from ascc_common.ports import free_port
 from ascc_eval.launching import run_launch
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
@@ -97,7 +98,7 @@ def main(argv=None):
     ap.add_argument("--rtf", default="1.0", help="real-time factor cap")
     ap.add_argument("--max-time-s", type=float, default=400.0)
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench_follow"))
-    ap.add_argument("--port", type=int, default=11511)
+    ap.add_argument("--port", type=int, default=0, help="ROS master port (0: a free one)")
     ap.add_argument("--http-port", type=int, default=18080,
                     help="loopback port of the simulated camera's MJPEG stream")
     ap.add_argument("--follower-params", default="",
@@ -106,6 +107,7 @@ def main(argv=None):
                     help="record a bag of each run (run.bag in its directory)")
     ap.add_argument("--report-only", action="store_true")
     args = ap.parse_args(argv)
+    args.port = args.port or free_port()
     os.makedirs(args.out, exist_ok=True)
     table = os.path.join(args.out, "results.json")
     rows = []

@@ -17,13 +17,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+
+from ascc_common.ports import free_port
 
 CONFIGS = {
     "1 robot (office)": ("office.yaml", "/"),
@@ -74,12 +75,6 @@ def bench_world(name: str):
         create.read_output()
 
     return cast_ms, scan_ms, best_ms(step, n=200) * 1e3
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
 
 
 def cpu_of(pids) -> float:

@@ -28,11 +28,12 @@ both see the same machine load; its share is printed beside.
 import argparse
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
+
+from ascc_common.ports import free_port
 
 TICK = os.sysconf("SC_CLK_TCK")
 HERE = os.path.dirname(os.path.realpath(__file__))
@@ -65,12 +66,6 @@ OLD_DRIVER_CODE = """import importlib.util, sys
 spec = importlib.util.spec_from_file_location('driver_node_rev', sys.argv[1])
 m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m); m.main()
 """
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
 
 
 def env_for(port: int):
