@@ -6,9 +6,11 @@ the TF display expects are in TF, and the markers of its marker displays are dra
 these are the errors rviz would show in its Displays panel (a missing topic or type,
 "Fixed Frame [map] does not exist", a plugin that is not found).
 
-Each launch runs on its own master on a free loopback port (scripts/ros_isolation.sh).
+Each launch runs on its own master on a free loopback port (scripts/ros_isolation.sh),
+CHECK_JOBS of them at once (they mostly wait: 105 s for the nine entries instead of ~190).
 ``scripts/rviz_screenshots.py`` renders the same configs with the same launch files.
 """
+import concurrent.futures
 import importlib.util
 import os
 import subprocess
@@ -112,8 +114,19 @@ def _wait_for_topics(master, wanted, deadline):
     return types or {}
 
 
-@pytest.mark.parametrize("entry", sorted(CONFIGS))
-def test_config_against_its_launch(entry):
+def _description_problems(master, displays):
+    problems = []
+    for d in displays:
+        if d["Class"] == "rviz/RobotModel" and d.get("Enabled", True):
+            code, _, urdf = master.getParam("/rviz_config_check", "/" + d["Robot Description"])
+            if code != 1 or "<robot" not in urdf:
+                problems.append("%s: no robot description" % d["Name"])
+    return problems
+
+
+def _check(entry):
+    """The problems rviz would show for ``entry`` of rviz/launches.yaml (its config with
+    its launch file running on an isolated master), or the launch's early end."""
     path, launch, args = CONFIGS[entry]
     manager, displays = _config(path)
     env = shots.isolated_env()
@@ -156,14 +169,10 @@ def test_config_against_its_launch(entry):
         if watcher is not None:
             out, _ = watcher.communicate(timeout=MARKER_WATCH_S + 60)
             problems += [line for line in out.splitlines() if line.strip()]
-        for d in displays:  # after TF: the launch has set its parameters
-            if d["Class"] == "rviz/RobotModel" and d.get("Enabled", True):
-                code, _, urdf = master.getParam("/rviz_config_check",
-                                                "/" + d["Robot Description"])
-                if code != 1 or "<robot" not in urdf:
-                    problems.append("%s: no robot description" % d["Name"])
-        assert run.poll() is None, "%s ended" % launch
-        assert problems == [], "%s with %s:\n%s" % (path, launch, "\n".join(problems))
+        problems += _description_problems(master, displays)  # after TF: params are set
+        if run.poll() is not None:
+            problems.append("%s ended" % launch)
+        return "%s with %s" % (path, launch), problems
     finally:
         if run.poll() is None:
             os.killpg(run.pid, 2)
@@ -171,3 +180,27 @@ def test_config_against_its_launch(entry):
             run.wait(timeout=60)
         except subprocess.TimeoutExpired:
             os.killpg(run.pid, 9)
+
+
+# The checks wait most of their time (a launch coming up, TF, MARKER_WATCH_S of markers):
+# CHECK_JOBS of them run at once, each on its own master.
+CHECK_JOBS = 3
+
+
+@pytest.fixture(scope="module")
+def checks(request):
+    """entry -> future of ``_check(entry)``, for every entry this session runs."""
+    wanted = sorted({item.callspec.params["entry"] for item in request.session.items
+                     if item.originalname == "test_config_against_its_launch"})
+    with concurrent.futures.ThreadPoolExecutor(CHECK_JOBS) as pool:
+        futures = {}
+        for entry in wanted:
+            futures[entry] = pool.submit(_check, entry)
+            time.sleep(1.0)  # free ports picked apart
+        yield futures
+
+
+@pytest.mark.parametrize("entry", sorted(CONFIGS))
+def test_config_against_its_launch(entry, checks):
+    what, problems = checks[entry].result()
+    assert problems == [], "%s:\n%s" % (what, "\n".join(problems))
