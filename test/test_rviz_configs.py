@@ -7,7 +7,7 @@ these are the errors rviz would show in its Displays panel (a missing topic or t
 "Fixed Frame [map] does not exist", a plugin that is not found).
 
 Each launch runs on its own master on a free loopback port (scripts/ros_isolation.sh),
-CHECK_JOBS of them at once (they mostly wait: 105 s for the nine entries instead of ~190).
+CHECK_JOBS of them at once (they mostly wait: 105 s for the eight entries instead of ~190).
 ``scripts/rviz_screenshots.py`` renders the same configs with the same launch files.
 """
 import concurrent.futures
