@@ -41,6 +41,7 @@ import numpy as np
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
 from ascc_common.params import param
 
+from .morphology import dilate_disk, disk_kernel  # noqa: F401 - disk_kernel: public here
 from .paths import CoarseGraph, block_size, build_graph, path_lengths
 
 # Outcome of `find_frontiers`; the node publishes it on ~status.
@@ -129,30 +130,6 @@ class FrontierResult:
         d[self.traversable[lr, lc] == 0] = np.inf
         out[inside] = d
         return out
-
-
-def disk_kernel(radius_cells: float) -> np.ndarray:
-    """uint8 structuring element: cells whose centre is within radius_cells of the middle."""
-    r = max(0, int(math.floor(radius_cells)))
-    yy, xx = np.mgrid[-r: r + 1, -r: r + 1]
-    return ((xx * xx + yy * yy) <= radius_cells * radius_cells + 1e-9).astype(np.uint8)
-
-
-def dilate_disk(mask: np.ndarray, radius_cells: float) -> np.ndarray:
-    """Dilate a uint8 mask by `disk_kernel(radius_cells)`, done exactly as the maximum of a
-    few rectangle dilations (rows of the disc with equal half-width), which OpenCV runs
-    much faster than a disc-shaped kernel. Outside the mask counts as empty."""
-    r = max(0, int(math.floor(radius_cells)))
-    widest = {}                                  # half-width -> tallest row offset with it
-    for dy in range(r + 1):
-        half = int(math.floor(math.sqrt(max(0.0, radius_cells ** 2 - dy * dy)) + 1e-9))
-        widest[half] = dy
-    out = None
-    for half, dy in widest.items():
-        d = cv2.dilate(mask, np.ones((2 * dy + 1, 2 * half + 1), np.uint8),
-                       borderType=cv2.BORDER_CONSTANT, borderValue=0)
-        out = d if out is None else cv2.max(out, d)
-    return out
 
 
 def known_window(grid: np.ndarray, margin: int) -> Optional[Tuple[int, int, int, int]]:

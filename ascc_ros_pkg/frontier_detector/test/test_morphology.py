@@ -1,0 +1,40 @@
+"""morphology.dilate_disk / dilate_rows against cv2.dilate with the same kernel."""
+
+import cv2
+import numpy as np
+import pytest
+
+from frontier_detector import morphology
+from frontier_detector.morphology import dilate_disk, dilate_rows, disk_kernel
+
+
+@pytest.mark.parametrize("strip_rows", [256, 7, 1])
+@pytest.mark.parametrize("radius", [0.0, 0.5, 1.0, 1.5, 2.5, 6.0 - 1e-6, 7.3, 12.0])
+def test_dilate_disk_equals_cv2_dilate(radius, strip_rows, monkeypatch):
+    monkeypatch.setattr(morphology, "STRIP_ROWS", strip_rows)
+    rng = np.random.default_rng(int(radius * 10) + strip_rows)
+    for shape in [(1, 1), (1, 9), (9, 1), (40, 3), (61, 70)]:
+        for density in (0.01, 0.3):
+            m = ((rng.random(shape) < density) * 255).astype(np.uint8)
+            ref = cv2.dilate(m, disk_kernel(radius), borderType=cv2.BORDER_CONSTANT,
+                             borderValue=0)
+            got = dilate_disk(m, radius)
+            assert got.dtype == np.uint8 and np.array_equal(got, ref), (radius, shape)
+
+
+@pytest.mark.parametrize("half", [[0, 0, 0], [3], [2, 2], [4, 4, 2, 1], [1, 0]])
+def test_dilate_rows_equals_cv2_dilate_with_that_kernel(half, monkeypatch):
+    monkeypatch.setattr(morphology, "STRIP_ROWS", 5)
+    r, w = len(half) - 1, half[0]
+    kernel = np.zeros((2 * r + 1, 2 * w + 1), np.uint8)
+    for dy, hw in enumerate(half):
+        kernel[r + dy, w - hw: w + hw + 1] = 1
+        kernel[r - dy, w - hw: w + hw + 1] = 1
+    m = ((np.random.default_rng(len(half)).random((23, 31)) < 0.05) * 255).astype(np.uint8)
+    ref = cv2.dilate(m, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    assert np.array_equal(dilate_rows(m, half), ref)
+
+
+def test_dilate_rows_rejects_a_kernel_wider_away_from_the_middle():
+    with pytest.raises(ValueError):
+        dilate_rows(np.zeros((3, 3), np.uint8), [1, 2])
