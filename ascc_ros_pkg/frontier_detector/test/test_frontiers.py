@@ -364,3 +364,28 @@ def test_grouping_same_goals_with_patches_or_whole_window(seed, monkeypatch):
     assert a.observe_only.any()                               # view points searched too
     for name in ("goals_rc", "centroids_rc", "cluster_cells", "observe_only", "phase2_cluster"):
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+def test_patches_equal_slices_of_a_zero_padded_image():
+    from frontier_detector.frontiers import patches
+
+    rng = np.random.default_rng(3)
+    img = rng.integers(1, 255, (23, 31)).astype(np.uint8)
+    half = 4
+    padded = np.zeros((23 + 2 * half, 31 + 2 * half), np.uint8)
+    padded[half:-half, half:-half] = img
+    # Inside, on every edge and corner, and patches wholly outside.
+    centres = np.array([[10, 15], [0, 0], [22, 30], [2, 29], [21, 1], [11, 0], [-3, 5],
+                        [-20, -20], [30, 40]])
+    got = patches(img, centres, half)
+    assert got.shape == (len(centres), 9, 9)
+    for (r, c), p in zip(centres, got):
+        want = np.zeros((9, 9), np.uint8)
+        for i in range(9):
+            for j in range(9):
+                rr, cc = r - half + i, c - half + j
+                if 0 <= rr < 23 and 0 <= cc < 31:
+                    want[i, j] = img[rr, cc]
+        assert np.array_equal(p, want), (r, c)
+    # All inside: the strided fast path alone.
+    assert np.array_equal(patches(img, centres[:1], half)[0], padded[10:19, 15:24])

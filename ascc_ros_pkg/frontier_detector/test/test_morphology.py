@@ -8,11 +8,11 @@ from frontier_detector import morphology
 from frontier_detector.morphology import dilate_disk, dilate_rows, disk_kernel
 
 
-@pytest.mark.parametrize("strip_rows", [256, 7, 1])
+@pytest.mark.parametrize("strip_cells", [720_000, 200, 1])
 @pytest.mark.parametrize("radius", [0.0, 0.5, 1.0, 1.5, 2.5, 6.0 - 1e-6, 7.3, 12.0])
-def test_dilate_disk_equals_cv2_dilate(radius, strip_rows, monkeypatch):
-    monkeypatch.setattr(morphology, "STRIP_ROWS", strip_rows)
-    rng = np.random.default_rng(int(radius * 10) + strip_rows)
+def test_dilate_disk_equals_cv2_dilate(radius, strip_cells, monkeypatch):
+    monkeypatch.setattr(morphology, "STRIP_CELLS", strip_cells)
+    rng = np.random.default_rng(int(radius * 10) + strip_cells)
     for shape in [(1, 1), (1, 9), (9, 1), (40, 3), (61, 70)]:
         for density in (0.01, 0.3):
             m = ((rng.random(shape) < density) * 255).astype(np.uint8)
@@ -24,7 +24,7 @@ def test_dilate_disk_equals_cv2_dilate(radius, strip_rows, monkeypatch):
 
 @pytest.mark.parametrize("half", [[0, 0, 0], [3], [2, 2], [4, 4, 2, 1], [1, 0]])
 def test_dilate_rows_equals_cv2_dilate_with_that_kernel(half, monkeypatch):
-    monkeypatch.setattr(morphology, "STRIP_ROWS", 5)
+    monkeypatch.setattr(morphology, "STRIP_CELLS", 5 * 31)
     r, w = len(half) - 1, half[0]
     kernel = np.zeros((2 * r + 1, 2 * w + 1), np.uint8)
     for dy, hw in enumerate(half):

@@ -37,11 +37,12 @@ from typing import Dict, Optional, Tuple
 
 import cv2
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
 from ascc_common.params import param
 
-from .morphology import dilate_disk, disk_kernel  # noqa: F401 - disk_kernel: public here
+from .morphology import clear_of, dilate_disk, disk_kernel  # noqa: F401 - disk_kernel
 from .paths import CoarseGraph, block_size, build_graph, path_lengths
 
 # Outcome of `find_frontiers`; the node publishes it on ~status.
@@ -55,6 +56,7 @@ OFF_MAP = 50                                       # padding value, see _window_
 # grouping: dilate the whole window's unknown cells (instead of patches around the clusters)
 # once the patches would cover more than this fraction of the window
 NEAR_FULL_FRACTION = 0.25
+PHASE1_STRIP_ROWS = 240                            # phase1_cells: rows per strip (about)
 
 
 @dataclass
@@ -164,21 +166,42 @@ def _phase1(sub: np.ndarray, neighbourhood_cells: int
     return cv2.bitwise_and(free, near_unknown), unknown, free
 
 
+def phase1_cells(sub: np.ndarray, neighbourhood_cells: int, tile: int
+                 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rows, cols, unknown mask) of `phase1_mask`'s cells, row-major, without the full-size
+    phase-1 mask: strips of rows (a multiple of `tile`, see `mask_cells`) are compared,
+    dilated and searched while they are in the cache."""
+    u8 = sub.view(np.uint8)
+    h, w = u8.shape
+    n = neighbourhood_cells
+    unknown = cv2.compare(u8, UNKNOWN & 0xFF, cv2.CMP_EQ)
+    kernel = np.ones((2 * n + 1, 2 * n + 1), np.uint8)
+    step = tile * max(1, PHASE1_STRIP_ROWS // tile) if h % tile == 0 else h
+    rows, cols = [], []
+    for y0 in range(0, h, step):
+        y1 = min(h, y0 + step)
+        a0, a1 = max(0, y0 - n), min(h, y1 + n)
+        near = cv2.dilate(unknown[a0:a1], kernel, borderType=cv2.BORDER_CONSTANT,
+                          borderValue=0)[y0 - a0: y1 - a0]
+        free = cv2.compare(u8[y0:y1], FREE, cv2.CMP_EQ)
+        rr, cc = mask_cells(cv2.bitwise_and(free, near, dst=near), tile)
+        rows.append(rr + y0)
+        cols.append(cc)
+    return np.concatenate(rows), np.concatenate(cols), unknown
+
+
 def traversable_mask(sub: np.ndarray, radius_cells: float,
                      free: Optional[np.ndarray] = None) -> np.ndarray:
     """uint8 mask (255) of FREE cells at least radius_cells from every OCCUPIED cell.
 
     `free` (uint8 0/255 mask of sub's FREE cells) may be passed when already computed.
     """
-    u8 = sub.view(np.uint8)
-    if free is None:
-        free = cv2.compare(u8, FREE, cv2.CMP_EQ)
     if radius_cells <= 0.0:
+        if free is None:
+            free = cv2.compare(sub.view(np.uint8), FREE, cv2.CMP_EQ)
         return free
-    occupied = cv2.compare(u8, OCCUPIED, cv2.CMP_EQ)
     # Cells at distance exactly radius are still allowed: dilate by a disc just inside it.
-    blocked = dilate_disk(occupied, max(0.0, radius_cells - 1e-6))
-    return cv2.subtract(free, blocked)                # 255 - 255 saturates to 0
+    return clear_of(sub, FREE, OCCUPIED, max(0.0, radius_cells - 1e-6))
 
 
 def snap_to_mask(mask: np.ndarray, row: int, col: int, radius_cells: int
@@ -320,6 +343,30 @@ def disk_offsets(radius_cells: float) -> Tuple[np.ndarray, np.ndarray]:
     return yy.ravel()[keep][order], xx.ravel()[keep][order]
 
 
+def patches(image: np.ndarray, centres: np.ndarray, half: int, fill=0) -> np.ndarray:
+    """(n, 2 half + 1, 2 half + 1) stack of the image around integer (row, col) centres;
+    `fill` outside the image. Whole patches are copied row by row from a sliding-window view
+    (no index arrays); the few that stick out of the image are clipped one by one."""
+    h, w = image.shape
+    side = 2 * half + 1
+    n = centres.shape[0]
+    out = np.full((n, side, side), fill, image.dtype)
+    r0, c0 = centres[:, 0] - half, centres[:, 1] - half
+    whole = (r0 >= 0) & (c0 >= 0) & (r0 + side <= h) & (c0 + side <= w)
+    if whole.any():
+        # numpy 1.17 (Ubuntu 20.04) has no sliding_window_view: the same view by strides.
+        s0, s1 = image.strides
+        windows = as_strided(image, shape=(h - side + 1, w - side + 1, side, side),
+                             strides=(s0, s1, s0, s1), writeable=False)
+        out[whole] = windows[r0[whole], c0[whole]]
+    for i in np.flatnonzero(~whole):
+        a0, a1 = max(0, r0[i]), min(h, r0[i] + side)
+        b0, b1 = max(0, c0[i]), min(w, c0[i] + side)
+        if a0 < a1 and b0 < b1:
+            out[i, a0 - r0[i]: a1 - r0[i], b0 - c0[i]: b1 - c0[i]] = image[a0:a1, b0:b1]
+    return out
+
+
 def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndarray,
                 search_cells: float, radius_cells: float,
                 near_unknown: Optional[np.ndarray] = None) -> np.ndarray:
@@ -330,7 +377,6 @@ def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndar
     map's size); patches overlap-free thanks to a radius_cells margin around the search disc.
     A precomputed `near_unknown` mask (nonzero = unknown within radius_cells) skips that.
     """
-    h, w = traversable.shape
     n = centroids.shape[0]
     if n == 0:
         return np.zeros((0, 2), np.int64)
@@ -339,21 +385,16 @@ def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndar
     half = s_cells + margin
     side = 2 * half + 1
     base = np.rint(centroids).astype(np.int64)
-    oy, ox = np.divmod(np.arange(side * side, dtype=np.int64), side)
-    rr = base[:, :1] + (oy - half)[None, :]                  # (n, side * side)
-    cc = base[:, 1:] + (ox - half)[None, :]
-    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-    flat = np.where(inside, rr * w + cc, 0)          # cells outside are masked below
     if near_unknown is not None:
-        near = near_unknown.ravel()[flat]
+        near = patches(near_unknown, base, half).reshape(n, side * side)
     else:
-        unk = unknown.ravel()[flat]
-        unk[~inside] = 0
-        near = dilate_disk(unk.reshape(n * side, side),
+        near = dilate_disk(patches(unknown, base, half).reshape(n * side, side),
                            max(0.0, radius_cells - 1e-6)).reshape(n, side * side)
     dr, dc = disk_offsets(search_cells)
     k = (dr + half) * side + (dc + half)                     # search disc, nearest first
-    valid = inside[:, k] & (near[:, k] == 0) & (traversable.ravel()[flat[:, k]] > 0)
+    # Outside the mask the patches hold 0: not traversable, so never valid.
+    valid = (near[:, k] == 0) & (patches(traversable, base, half).reshape(n, side * side)[:, k]
+                                 > 0)
     first = valid.argmax(axis=1)
     found = valid[np.arange(n), first]
     goals = np.stack([base[:, 0] + dr[first], base[:, 1] + dc[first]], axis=1)
@@ -412,12 +453,8 @@ def view_goals(sub: np.ndarray, traversable: np.ndarray, unknown: np.ndarray,
         else:
             half = s1 + int(math.ceil(radius_cells)) + 1
             side = 2 * half + 1
-            oy, ox = np.divmod(np.arange(side * side, dtype=np.int64), side)
-            pr = base[todo, :1] + (oy - half)[None, :]
-            pc = base[todo, 1:] + (ox - half)[None, :]
-            pin = (pr >= 0) & (pr < h) & (pc >= 0) & (pc < w)
-            unk = np.where(pin, unknown.ravel()[np.where(pin, pr * w + pc, 0)], 0)
-            near = dilate_disk(unk.astype(np.uint8).reshape(m * side, side),
+            unk = patches(unknown, base[todo], half)
+            near = dilate_disk(unk.reshape(m * side, side),
                                max(0.0, radius_cells - 1e-6))
             k = ((dr + half) * side + (dc + half)).ravel()
             valid &= near.reshape(m, side * side)[:, k] == 0
@@ -466,7 +503,6 @@ class Preliminary:
     window: Tuple[int, int, int, int]    # (row0, col0, rows, cols) in the full grid
     sub: np.ndarray                      # the grid inside the window (OFF_MAP padded)
     unknown: np.ndarray                  # uint8 0/255 mask of UNKNOWN cells of sub
-    free: np.ndarray                     # uint8 0/255 mask of FREE cells of sub
     rows: np.ndarray
     cols: np.ndarray
     segment: np.ndarray
@@ -511,9 +547,8 @@ def preliminary_generation(grid: np.ndarray, neighbourhood_cells: int, margin: i
         return None
     window = _aligned_window(grid.shape, window, tile)
     sub = _window_view(grid, window)
-    p1, unknown, free = _phase1(sub, neighbourhood_cells)
-    rows, cols = mask_cells(p1, tile)
-    return Preliminary(window, sub, unknown, free, rows, cols, label_cells(rows, cols))
+    rows, cols, unknown = phase1_cells(sub, neighbourhood_cells, tile)
+    return Preliminary(window, sub, unknown, rows, cols, label_cells(rows, cols))
 
 
 def filtering(pre: Preliminary, robot: Tuple[int, int], resolution: float,
@@ -524,7 +559,7 @@ def filtering(pre: Preliminary, robot: Tuple[int, int], resolution: float,
     traversable cell nearby.
     """
     radius_cells = p.footprint_radius_m / resolution
-    trav = traversable_mask(pre.sub, radius_cells, pre.free)
+    trav = traversable_mask(pre.sub, radius_cells)
     snap = snap_to_mask(trav, robot[0], robot[1],
                         int(math.ceil(p.robot_snap_radius_m / resolution)))
     if snap is None:

@@ -33,6 +33,8 @@ import numpy as np
 from ascc_common.grid import OCCUPIED, UNKNOWN
 from ascc_common.params import param
 
+from .frontiers import patches
+
 STRATEGIES = ("utility", "nearest")
 
 
@@ -114,28 +116,18 @@ def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.nd
     n = rows.size
     if n == 0:
         return np.zeros(0), np.zeros(0)
-    h, w = grid.shape
     dr, dc, area = ray_offsets(resolution, params)
     n_steps = dr.shape[1]
-    # Flat indices into a grid padded by n_steps + 1 cells of an "off the map" value, so one
-    # gather serves candidates near the edge too. Only the candidates' bounding box is padded.
-    # When every ray stays inside the grid (candidates at least n_steps from its edges, the
-    # usual case), the grid itself is indexed and nothing is copied.
-    pad = n_steps + 1
+    # One patch of the grid per candidate (an "off the map" value outside the grid, which
+    # ends the rays there), then one gather with the same offsets for every patch: no
+    # (C, R, S) index array, and each candidate's samples come from its own small patch.
     off_map = np.int8(-2)
-    if (rows.min() >= pad and cols.min() >= pad and rows.max() < h - pad
-            and cols.max() < w - pad):
-        local = np.ascontiguousarray(grid, dtype=np.int8)
-        lw = w
-        base = rows * lw + cols
-    else:
-        b_r0, b_c0 = max(0, int(rows.min()) - pad), max(0, int(cols.min()) - pad)
-        b_r1, b_c1 = min(h, int(rows.max()) + pad + 1), min(w, int(cols.max()) + pad + 1)
-        local = np.full((b_r1 - b_r0 + 2 * pad, b_c1 - b_c0 + 2 * pad), off_map, np.int8)
-        local[pad: pad + b_r1 - b_r0, pad: pad + b_c1 - b_c0] = grid[b_r0:b_r1, b_c0:b_c1]
-        lw = local.shape[1]
-        base = (rows - b_r0 + pad) * lw + (cols - b_c0 + pad)
-    vals = local.ravel()[base[:, None, None] + (dr * lw + dc)[None]]      # (C, R, S)
+    half = int(max(np.abs(dr).max(), np.abs(dc).max()))
+    side = 2 * half + 1
+    local = patches(np.asarray(grid, dtype=np.int8), np.stack([rows, cols], axis=1), half,
+                    fill=off_map).reshape(n, side * side)
+    vals = np.take(local, ((dr + half) * side + (dc + half)).ravel(), axis=1
+                   ).reshape(n, dr.shape[0], n_steps)                       # (C, R, S)
     stop = (vals == OCCUPIED) | (vals == off_map)
     unknown = vals == UNKNOWN
     # Index of the first stopping sample on each ray (n_steps if none).
