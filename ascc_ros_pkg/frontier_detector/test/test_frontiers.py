@@ -16,7 +16,6 @@ from frontier_detector.frontiers import (
     find_frontiers,
     grouping,
     label_cells,
-    mask_cells,
     phase1_mask,
     preliminary_generation,
     traversable_mask,
@@ -215,9 +214,7 @@ def test_goals_are_traversable_and_reachable_on_synthetic_office():
 def test_sparse_helpers_match_opencv(seed):
     rng = np.random.default_rng(seed)
     m = ((rng.random((96, 128)) < 0.08) * 255).astype(np.uint8)
-    rr, cc = mask_cells(m, 16)
-    r2, c2 = np.nonzero(m)
-    assert np.array_equal(rr, r2) and np.array_equal(cc, c2)
+    rr, cc = np.nonzero(m)
     labels = label_cells(rr, cc)
     n, cv_labels = cv2.connectedComponents(m, connectivity=8)
     assert labels.max() + 1 == n - 1
@@ -290,7 +287,6 @@ def test_preliminary_generation_finds_door_cells_and_one_segment():
     assert got == cells(np.argwhere(phase1_mask(g, 1)))
     assert {c for _, c in got} == {79}                       # the door column only
     assert set(pre.segment.tolist()) == {0}
-    assert np.array_equal(pre.unknown > 0, pre.sub == UNKNOWN)
     assert preliminary_generation(np.full((9, 9), UNKNOWN, np.int8), 1, 4, 4) is None
 
 
@@ -389,3 +385,18 @@ def test_patches_equal_slices_of_a_zero_padded_image():
         assert np.array_equal(p, want), (r, c)
     # All inside: the strided fast path alone.
     assert np.array_equal(patches(img, centres[:1], half)[0], padded[10:19, 15:24])
+
+
+@pytest.mark.parametrize("strip_cells", [720_000, 300, 1])
+def test_phase1_cells_by_strips_equal_the_phase1_mask(strip_cells, monkeypatch):
+    from frontier_detector import frontiers
+    from frontier_detector.frontiers import phase1_cells
+
+    monkeypatch.setattr(frontiers, "PHASE1_STRIP_CELLS", strip_cells)
+    rng = np.random.default_rng(strip_cells)
+    g = rng.choice(np.array([FREE, OCCUPIED, UNKNOWN], np.int8), size=(61, 47),
+                   p=[0.6, 0.1, 0.3])
+    for n in (1, 2):
+        rr, cc = phase1_cells(g, n)
+        r2, c2 = np.nonzero(phase1_mask(g, n))
+        assert rr.size > 0 and np.array_equal(rr, r2) and np.array_equal(cc, c2)

@@ -56,7 +56,7 @@ OFF_MAP = 50                                       # padding value, see _window_
 # grouping: dilate the whole window's unknown cells (instead of patches around the clusters)
 # once the patches would cover more than this fraction of the window
 NEAR_FULL_FRACTION = 0.25
-PHASE1_STRIP_ROWS = 240                            # phase1_cells: rows per strip (about)
+PHASE1_STRIP_CELLS = 720_000                       # phase1_cells: cells per strip
 
 
 @dataclass
@@ -151,43 +151,37 @@ def known_window(grid: np.ndarray, margin: int) -> Optional[Tuple[int, int, int,
 
 def phase1_mask(sub: np.ndarray, neighbourhood_cells: int) -> np.ndarray:
     """uint8 mask (255) of FREE cells with an UNKNOWN cell within the neighbourhood."""
-    return _phase1(sub, neighbourhood_cells)[0]
-
-
-def _phase1(sub: np.ndarray, neighbourhood_cells: int
-            ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(phase-1 mask, unknown mask, free mask), all uint8 0/255."""
     u8 = sub.view(np.uint8)
-    free = cv2.compare(u8, FREE, cv2.CMP_EQ)
-    unknown = cv2.compare(u8, UNKNOWN & 0xFF, cv2.CMP_EQ)
     size = 2 * neighbourhood_cells + 1
-    near_unknown = cv2.dilate(unknown, np.ones((size, size), np.uint8),
+    near_unknown = cv2.dilate(cv2.compare(u8, UNKNOWN & 0xFF, cv2.CMP_EQ),
+                              np.ones((size, size), np.uint8),
                               borderType=cv2.BORDER_CONSTANT, borderValue=0)
-    return cv2.bitwise_and(free, near_unknown), unknown, free
+    return cv2.bitwise_and(cv2.compare(u8, FREE, cv2.CMP_EQ), near_unknown)
 
 
-def phase1_cells(sub: np.ndarray, neighbourhood_cells: int, tile: int
-                 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rows, cols, unknown mask) of `phase1_mask`'s cells, row-major, without the full-size
-    phase-1 mask: strips of rows (a multiple of `tile`, see `mask_cells`) are compared,
-    dilated and searched while they are in the cache."""
+def phase1_cells(sub: np.ndarray, neighbourhood_cells: int
+                 ) -> Tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) of `phase1_mask`'s cells, row-major, without any full-size mask: strips
+    of rows are compared, dilated and searched while they are in the cache."""
     u8 = sub.view(np.uint8)
     h, w = u8.shape
     n = neighbourhood_cells
-    unknown = cv2.compare(u8, UNKNOWN & 0xFF, cv2.CMP_EQ)
     kernel = np.ones((2 * n + 1, 2 * n + 1), np.uint8)
-    step = tile * max(1, PHASE1_STRIP_ROWS // tile) if h % tile == 0 else h
+    step = max(1, PHASE1_STRIP_CELLS // max(1, w))
     rows, cols = [], []
     for y0 in range(0, h, step):
         y1 = min(h, y0 + step)
         a0, a1 = max(0, y0 - n), min(h, y1 + n)
-        near = cv2.dilate(unknown[a0:a1], kernel, borderType=cv2.BORDER_CONSTANT,
+        unknown = cv2.compare(u8[a0:a1], UNKNOWN & 0xFF, cv2.CMP_EQ)
+        near = cv2.dilate(unknown, kernel, borderType=cv2.BORDER_CONSTANT,
                           borderValue=0)[y0 - a0: y1 - a0]
-        free = cv2.compare(u8[y0:y1], FREE, cv2.CMP_EQ)
-        rr, cc = mask_cells(cv2.bitwise_and(free, near, dst=near), tile)
-        rows.append(rr + y0)
-        cols.append(cc)
-    return np.concatenate(rows), np.concatenate(cols), unknown
+        p1 = cv2.bitwise_and(cv2.compare(u8[y0:y1], FREE, cv2.CMP_EQ), near, dst=near)
+        # 0/1 bytes are a valid bool array; a flat bool array's nonzero() is many times
+        # faster than a uint8 or a 2-D array's.
+        flat = np.flatnonzero(cv2.bitwise_and(p1, 1, dst=p1).view(bool).ravel())
+        rows.append(flat // w + y0)
+        cols.append(flat % w)
+    return np.concatenate(rows), np.concatenate(cols)
 
 
 def traversable_mask(sub: np.ndarray, radius_cells: float,
@@ -222,35 +216,6 @@ def snap_to_mask(mask: np.ndarray, row: int, col: int, radius_cells: int
     if d2[k] > radius_cells * radius_cells:
         return None
     return int(rr[k] + r0), int(cc[k] + c0)
-
-
-def mask_cells(mask: np.ndarray, block: int) -> Tuple[np.ndarray, np.ndarray]:
-    """(rows, cols) of the nonzero cells of a sparse uint8 mask, in row-major order.
-
-    Looks only inside the block x block tiles that hold a nonzero cell (found on a
-    downsampled copy), which is several times faster than np.nonzero on a large, mostly
-    empty mask. The mask's shape must be a multiple of block.
-    """
-    h, w = mask.shape
-    if block <= 1 or h % block or w % block:
-        rr, cc = np.nonzero(mask)
-        return rr.astype(np.int64), cc.astype(np.int64)
-    # OR over the tile's rows, then over its columns (strided views; faster than
-    # cv2.resize's area averaging): nonzero iff the tile holds a nonzero cell.
-    rows_or = mask[0::block].copy()
-    for j in range(1, block):
-        rows_or |= mask[j::block]
-    tiles = rows_or[:, 0::block].copy()
-    for j in range(1, block):
-        tiles |= rows_or[:, j::block]
-    tr, tc = np.nonzero(tiles)
-    oy, ox = np.divmod(np.arange(block * block), block)
-    rr = (tr[:, None] * block + oy[None, :]).ravel()
-    cc = (tc[:, None] * block + ox[None, :]).ravel()
-    hit = mask[rr, cc] > 0
-    rr, cc = rr[hit], cc[hit]
-    order = np.argsort(rr * w + cc, kind="stable")
-    return rr[order].astype(np.int64), cc[order].astype(np.int64)
 
 
 def label_cells(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -367,12 +332,13 @@ def patches(image: np.ndarray, centres: np.ndarray, half: int, fill=0) -> np.nda
     return out
 
 
-def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndarray,
+def place_goals(traversable: np.ndarray, sub: np.ndarray, centroids: np.ndarray,
                 search_cells: float, radius_cells: float,
                 near_unknown: Optional[np.ndarray] = None) -> np.ndarray:
     """Per centroid, the nearest safe cell within search_cells; (-1, -1) if none.
 
-    Safe: traversable and no unknown cell within radius_cells. Works on one small patch per
+    Safe: traversable and no UNKNOWN cell of sub (the grid window that traversable covers)
+    within radius_cells. Works on one small patch per
     centroid (gathered, dilated as one stacked image, so the cost does not depend on the
     map's size); patches overlap-free thanks to a radius_cells margin around the search disc.
     A precomputed `near_unknown` mask (nonzero = unknown within radius_cells) skips that.
@@ -388,7 +354,8 @@ def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndar
     if near_unknown is not None:
         near = patches(near_unknown, base, half).reshape(n, side * side)
     else:
-        near = dilate_disk(patches(unknown, base, half).reshape(n * side, side),
+        unknown = (patches(sub, base, half) == UNKNOWN).view(np.uint8)    # 0/1
+        near = dilate_disk(unknown.reshape(n * side, side),
                            max(0.0, radius_cells - 1e-6)).reshape(n, side * side)
     dr, dc = disk_offsets(search_cells)
     k = (dr + half) * side + (dc + half)                     # search disc, nearest first
@@ -402,15 +369,15 @@ def place_goals(traversable: np.ndarray, unknown: np.ndarray, centroids: np.ndar
     return goals
 
 
-def view_goals(sub: np.ndarray, traversable: np.ndarray, unknown: np.ndarray,
-               reachable, centroids: np.ndarray, range_cells: float, radius_cells: float,
-               n_rays: int, near_unknown: Optional[np.ndarray] = None) -> np.ndarray:
+def view_goals(sub: np.ndarray, traversable: np.ndarray, reachable, centroids: np.ndarray,
+               range_cells: float, radius_cells: float, n_rays: int,
+               near_unknown: Optional[np.ndarray] = None) -> np.ndarray:
     """View points for frontier clusters the robot cannot reach; (-1, -1) if none.
 
     Rays go out from each centroid (n_rays, one cell per step, up to range_cells) and stop
     at the first occupied cell, so every sample has a line of sight to the centroid; the
     nearest sample that is traversable, reachable (`reachable(rows, cols)` -> bool) and at
-    least radius_cells from unknown cells is the view point. `near_unknown` (nonzero =
+    least radius_cells from UNKNOWN cells of sub is the view point. `near_unknown` (nonzero =
     unknown within radius_cells) may be precomputed for the whole mask; otherwise it is
     computed on one patch per centroid. Steps are searched in chunks, nearest first, and
     clusters drop out of the search once they have a view point.
@@ -453,7 +420,7 @@ def view_goals(sub: np.ndarray, traversable: np.ndarray, unknown: np.ndarray,
         else:
             half = s1 + int(math.ceil(radius_cells)) + 1
             side = 2 * half + 1
-            unk = patches(unknown, base[todo], half)
+            unk = (patches(sub, base[todo], half) == UNKNOWN).view(np.uint8)   # 0/1
             near = dilate_disk(unk.reshape(m * side, side),
                                max(0.0, radius_cells - 1e-6))
             k = ((dr + half) * side + (dc + half)).ravel()
@@ -502,7 +469,6 @@ class Preliminary:
 
     window: Tuple[int, int, int, int]    # (row0, col0, rows, cols) in the full grid
     sub: np.ndarray                      # the grid inside the window (OFF_MAP padded)
-    unknown: np.ndarray                  # uint8 0/255 mask of UNKNOWN cells of sub
     rows: np.ndarray
     cols: np.ndarray
     segment: np.ndarray
@@ -540,15 +506,15 @@ def preliminary_generation(grid: np.ndarray, neighbourhood_cells: int, margin: i
     """Phase 1: FREE cells with UNKNOWN within neighbourhood_cells, and their segments.
 
     Works on the bounding box of the known cells grown by `margin` and aligned to `tile`
-    (see `mask_cells`); None if the grid has no known cell.
+    (the coarse graph's blocks divide it); None if the grid has no known cell.
     """
     window = known_window(grid, margin)
     if window is None:
         return None
     window = _aligned_window(grid.shape, window, tile)
     sub = _window_view(grid, window)
-    rows, cols, unknown = phase1_cells(sub, neighbourhood_cells, tile)
-    return Preliminary(window, sub, unknown, rows, cols, label_cells(rows, cols))
+    rows, cols = phase1_cells(sub, neighbourhood_cells)
+    return Preliminary(window, sub, rows, cols, label_cells(rows, cols))
 
 
 def filtering(pre: Preliminary, robot: Tuple[int, int], resolution: float,
@@ -603,11 +569,12 @@ def grouping(pre: Preliminary, filt: Filtered, resolution: float,
     patch_area = (size.size * (2 * (p.goal_search_radius_m / resolution + radius_cells)) ** 2
                   + f_size.size * (2 * (p.observe_range_m / resolution + radius_cells)) ** 2)
     if patch_area > NEAR_FULL_FRACTION * pre.sub.size:
-        near_full = dilate_disk(pre.unknown, max(0.0, radius_cells - 1e-6))
+        unknown = cv2.compare(pre.sub.view(np.uint8), UNKNOWN & 0xFF, cv2.CMP_EQ)
+        near_full = dilate_disk(unknown, max(0.0, radius_cells - 1e-6))
     # Goal: nearest cell to the centroid that is reachable and keeps the whole footprint in
     # known space (>= footprint radius from unknown cells too: the unknown just behind a
     # frontier may be a wall), searched within goal_search_radius_m.
-    goals = place_goals(trav, pre.unknown, centroids, p.goal_search_radius_m / resolution,
+    goals = place_goals(trav, pre.sub, centroids, p.goal_search_radius_m / resolution,
                         radius_cells, near_full)
     # Clusters without such a cell nearby (a narrow space behind the frontier) and the
     # unreachable segments' clusters get a view point with a line of sight instead.
@@ -615,7 +582,7 @@ def grouping(pre: Preliminary, filt: Filtered, resolution: float,
         missing = np.nonzero(goals[:, 0] < 0)[0]
         look = np.concatenate([centroids[missing], f_centroids])
         looked = view_goals(
-            pre.sub, trav, pre.unknown, filt.reachable,
+            pre.sub, trav, filt.reachable,
             look, p.observe_range_m / resolution, radius_cells, p.observe_rays, near_full)
         goals[missing] = looked[: missing.size]
         f_goals = looked[missing.size:]
@@ -650,7 +617,7 @@ def find_frontiers(grid: np.ndarray, resolution: float, robot_rc: Tuple[int, int
     times: Dict[str, float] = {}
     radius_cells = p.footprint_radius_m / resolution
     k = block_size(resolution, p.footprint_radius_m, p.path_resolution_m)
-    tile = k * max(1, int(round(16 / k)))                 # multiple of k for mask_cells
+    tile = k * max(1, int(round(16 / k)))                 # window: a multiple of k
 
     t0 = time.perf_counter()
     margin = p.neighbourhood_cells + int(math.ceil(radius_cells)) + 1
