@@ -137,12 +137,13 @@ class FrontierResult:
 def known_window(grid: np.ndarray, margin: int) -> Optional[Tuple[int, int, int, int]]:
     """(row0, col0, rows, cols) of the bounding box of known cells grown by margin, or None."""
     # int8 -1 is uint8 255: a row (column) holds a known cell iff its minimum is below 255.
-    # Two numpy reductions run several times faster than a mask and cv2.boundingRect.
+    # Two numpy reductions run several times faster than a mask and cv2.boundingRect; the
+    # columns' one only over the rows that hold known cells.
     u8 = grid.view(np.uint8)
     rows = np.flatnonzero(u8.min(axis=1) != 255)
     if rows.size == 0:
         return None
-    cols = np.flatnonzero(u8.min(axis=0) != 255)
+    cols = np.flatnonzero(u8[rows[0]: rows[-1] + 1].min(axis=0) != 255)
     r0, c0 = max(0, int(rows[0]) - margin), max(0, int(cols[0]) - margin)
     r1 = min(grid.shape[0], int(rows[-1]) + 1 + margin)
     c1 = min(grid.shape[1], int(cols[-1]) + 1 + margin)
@@ -172,13 +173,15 @@ def phase1_cells(sub: np.ndarray, neighbourhood_cells: int
     for y0 in range(0, h, step):
         y1 = min(h, y0 + step)
         a0, a1 = max(0, y0 - n), min(h, y1 + n)
-        unknown = cv2.compare(u8[a0:a1], UNKNOWN & 0xFF, cv2.CMP_EQ)
-        near = cv2.dilate(unknown, kernel, borderType=cv2.BORDER_CONSTANT,
+        # On the grid's bytes (FREE 0, UNKNOWN 255, the largest): the neighbourhood's
+        # maximum is 255 iff it holds an UNKNOWN cell, and max - own byte (saturating) is
+        # 255 iff moreover the cell itself is FREE. One dilation, one subtraction, one
+        # comparison per strip, no masks.
+        near = cv2.dilate(u8[a0:a1], kernel, borderType=cv2.BORDER_CONSTANT,
                           borderValue=0)[y0 - a0: y1 - a0]
-        p1 = cv2.bitwise_and(cv2.compare(u8[y0:y1], FREE, cv2.CMP_EQ), near, dst=near)
-        # 0/1 bytes are a valid bool array; a flat bool array's nonzero() is many times
-        # faster than a uint8 or a 2-D array's.
-        flat = np.flatnonzero(cv2.bitwise_and(p1, 1, dst=p1).view(bool).ravel())
+        cv2.subtract(near, u8[y0:y1], dst=near)
+        # A flat bool array's nonzero() is many times faster than a uint8 or 2-D array's.
+        flat = np.flatnonzero(near.ravel() == 255)
         rows.append(flat // w + y0)
         cols.append(flat % w)
     return np.concatenate(rows), np.concatenate(cols)

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 from typing import Tuple
 
+import cv2
 import numpy as np
 
 # Public (ascc_eval.offline walks the same graph): DR, DC are the row and column steps of
@@ -69,11 +70,21 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
         raise ValueError(f"mask shape {traversable.shape} is not a multiple of k={k}")
     hc, wc = h // k, w // k
     t = traversable
+    if t.dtype != np.uint8:                          # OpenCV below: 0/1 bytes will do
+        t = (t if t.dtype == bool else t != 0).view(np.uint8)
     # East edges: the last column of block j touches the first column of block j+1.
     ep = np.zeros((hc + 2, wc + 2), bool)
-    if wc > 1:
-        cross = t[:, k - 1: w - 1: k] & t[:, k:: k]
-        ep[1:-1, 1:-2] = cross.reshape(hc, k, wc - 1).max(axis=1) > 0
+    if wc > 1 and hc > 0:
+        # Row j of every block at a time (row-strided views, contiguous along the row):
+        # each cell AND its east neighbour, ORed over the block's k rows; the block borders'
+        # columns are picked from the small result. Several times faster than the
+        # column-strided views over the whole mask.
+        pair_any = np.zeros((hc, w - k), np.uint8)
+        for j in range(k):
+            rows_j = t[j::k]
+            cv2.bitwise_or(pair_any, cv2.bitwise_and(rows_j[:, k - 1: w - 1], rows_j[:, k:]),
+                           dst=pair_any)
+        ep[1:-1, 1:-2] = pair_any[:, ::k] > 0
     sp = np.zeros((hc + 2, wc + 2), bool)
     if hc > 1:
         cross = t[k - 1: h - 1: k, :] & t[k:: k, :]
@@ -119,22 +130,23 @@ def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.n
     order = np.arange(n, dtype=np.int32)
     steps[start_node] = 0.0
     front = np.array([start_node], dtype=np.intp)
-    compress = np.compress
+    moves_t = _MOVES_T
     while True:
         # Moves as (8, F): the selections below then run over contiguous rows. The front
         # never holds a padding block, so all 8 neighbours are inside the array; one
         # selection (allowed and not reached yet) instead of two saves a pass per level.
-        # np.compress on the flattened mask is several times faster than boolean indexing.
+        # compress() on the flattened mask is several times faster than boolean indexing,
+        # and the methods skip numpy's Python-level function wrappers (~300 levels here).
         nb = front + offsets
-        new = np.take(_MOVES_T, allow[front], axis=1)
-        new &= steps[nb] == np.inf
+        new = moves_t.take(allow.take(front), axis=1)
+        new &= steps.take(nb) == np.inf
         new = new.ravel()
-        nb = compress(new, nb)
+        nb = nb.compress(new)
         if nb.size == 0:
             break
         # Several parents on this level may reach a block: keep the shortest length.
-        np.minimum.at(steps, nb, compress(new, steps[front] + _STEP_COL))
+        np.minimum.at(steps, nb, (steps.take(front) + _STEP_COL).compress(new))
         first = order[: nb.size]
         stamp[nb] = first                                     # de-duplicate without sorting
-        front = compress(stamp[nb] == first, nb)
+        front = nb.compress(stamp.take(nb) == first)
     return steps * np.float32(graph.k * resolution)
