@@ -257,9 +257,11 @@ def label_cells(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
             if np.array_equal(grand, parent):
                 break
             parent = grand
-    _, labels_sorted = np.unique(parent, return_inverse=True)
+    # Dense labels in the order of the roots (what np.unique's inverse gives, without its
+    # sort): every root is its own parent and the smallest index of its group.
+    is_root = parent == np.arange(n)
     labels = np.empty(n, np.int64)
-    labels[order] = labels_sorted
+    labels[order] = (np.cumsum(is_root) - 1)[parent]
     return labels
 
 
@@ -405,36 +407,39 @@ def view_goals(sub: np.ndarray, traversable: np.ndarray, reachable, centroids: n
         s1 = min(steps, s0 + chunk)
         dr, dc = dr_all[s0:s1], dc_all[s0:s1]
         m = todo.size
-        rr = base[todo, :1] + dr.ravel()[None, :]                # (m, chunk * R)
-        cc = base[todo, 1:] + dc.ravel()[None, :]
-        inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-        flat = np.where(inside, rr * w + cc, 0)
-        # 2-D indexing: sub is a window of the grid, its ravel() would copy it.
-        occ = ((sub[np.where(inside, rr, 0), np.where(inside, cc, 0)] == OCCUPIED)
-               | ~inside).reshape(m, s1 - s0, n_rays)
+        # Patches of the window and of the masks around the centroids, covering this chunk
+        # of steps (and the footprint around it); the samples are one gather per patch.
+        # Outside the window counts as occupied (the ray ends) and not traversable.
+        half = s1 + int(math.ceil(radius_cells)) + 1
+        side = 2 * half + 1
+        k = ((dr + half) * side + (dc + half)).ravel()            # (chunk * R,)
+        sp = patches(sub, base[todo], half, fill=OCCUPIED)
+        occ = (sp.reshape(m, side * side).take(k, axis=1) == OCCUPIED
+               ).reshape(m, s1 - s0, n_rays)
         seen = np.logical_and.accumulate(~occ, axis=1)            # ray still open here
         blocked_before = np.ones_like(occ)
         blocked_before[:, 0] = ~open_rays[todo]
         blocked_before[:, 1:] = ~(seen[:, :-1] & open_rays[todo][:, None, :])
         open_rays[todo] &= seen[:, -1]
-        valid = inside & ~blocked_before.reshape(m, -1) & (traversable.ravel()[flat] > 0)
+        valid = ~blocked_before.reshape(m, -1)
+        valid &= patches(traversable, base[todo], half).reshape(m, side * side).take(
+            k, axis=1) > 0
         if near_unknown is not None:
-            valid &= near_unknown.ravel()[flat] == 0
+            near = patches(near_unknown, base[todo], half).reshape(m, side * side)
         else:
-            half = s1 + int(math.ceil(radius_cells)) + 1
-            side = 2 * half + 1
-            unk = (patches(sub, base[todo], half) == UNKNOWN).view(np.uint8)   # 0/1
+            unk = (sp == UNKNOWN).view(np.uint8)                   # 0/1
             near = dilate_disk(unk.reshape(m * side, side),
-                               max(0.0, radius_cells - 1e-6))
-            k = ((dr + half) * side + (dc + half)).ravel()
-            valid &= near.reshape(m, side * side)[:, k] == 0
+                               max(0.0, radius_cells - 1e-6)).reshape(m, side * side)
+        valid &= near.take(k, axis=1) == 0
         cand = np.nonzero(valid)
-        ok = reachable(flat[cand] // w, flat[cand] % w)
+        c_r = base[todo[cand[0]], 0] + dr.ravel()[cand[1]]
+        c_c = base[todo[cand[0]], 1] + dc.ravel()[cand[1]]
+        ok = reachable(c_r, c_c)
         valid[cand[0][~ok], cand[1][~ok]] = False
         first = valid.argmax(axis=1)                              # nearest step first
         found = valid[np.arange(m), first]
-        goals[todo[found], 0] = rr[np.arange(m), first][found]
-        goals[todo[found], 1] = cc[np.arange(m), first][found]
+        goals[todo[found], 0] = base[todo[found], 0] + dr.ravel()[first[found]]
+        goals[todo[found], 1] = base[todo[found], 1] + dc.ravel()[first[found]]
         todo = todo[~found]
     return goals
 
