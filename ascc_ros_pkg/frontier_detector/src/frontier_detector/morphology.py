@@ -5,8 +5,9 @@ memory each: on the frontier search's 2820 x 2820 windows the passes, not the ar
 are the cost. Here a dilation is a chain of `cv2.max` calls on shifted views, done strip by
 strip (`STRIP_CELLS` output cells at a time), so the intermediate images stay in the cache:
 
-* a centred running maximum of half-width a becomes one of half-width a + b (b <= a) by
-  one maximum of the image shifted by -b and by +b (the two windows then touch);
+* a forward running maximum of width a (cell i: the maximum of cells i .. i + a - 1)
+  becomes one of width a + b (b <= a) by one maximum with itself shifted by b; the centred
+  one of half-width hw is that of width 2 hw + 1, read hw cells earlier;
 * the disc is, row offset by row offset, a running maximum of some half-width: the rows
   of the widest half-width are one vertical running maximum, the others two shifted
   maxima each.
@@ -44,24 +45,6 @@ def disk_half_widths(radius_cells: float) -> List[int]:
 def dilate_disk(mask: np.ndarray, radius_cells: float) -> np.ndarray:
     """Dilate a uint8 mask by `disk_kernel(radius_cells)`; outside the mask counts as 0."""
     return dilate_rows(mask, disk_half_widths(radius_cells))
-
-
-def _grow(src: np.ndarray, cur: int, half: int, axis: int, dst: np.ndarray) -> int:
-    """dst = centred running maximum along axis, of half-width min(half, 2 cur) (at least
-    1), from src holding one of half-width cur; returns the new half-width. Only positions
-    at least the new half-width from both ends are written (the rest is padding)."""
-    n = src.shape[axis]
-    s = (slice(None),) * axis
-    if cur == 0:
-        b = 1
-        mid = s + (slice(1, n - 1),)
-        cv2.max(src[s + (slice(0, n - 2),)], src[mid], dst=dst[mid])
-        cv2.max(dst[mid], src[s + (slice(2, n),)], dst=dst[mid])
-    else:
-        b = min(cur, half - cur)
-        cv2.max(src[s + (slice(0, n - 2 * b),)], src[s + (slice(2 * b, n),)],
-                dst=dst[s + (slice(b, n - b),)])
-    return cur + b
 
 
 def dilate_rows(mask: np.ndarray, half: List[int]) -> np.ndarray:
@@ -113,53 +96,65 @@ def dilate_strips(shape: Tuple[int, int], half: List[int],
         return
     r, hmax = len(half) - 1, half[0]
     t0 = max(dy for dy in range(r + 1) if half[dy] == hmax)   # rows of the widest width
-    widths = sorted(set(half))
     strip = max(1, STRIP_CELLS // w)
     rows_cap = min(h, strip) + 2 * r
     shape_p = (rows_cap, w + 2 * hmax)
     pad = np.zeros(shape_p, np.uint8)
-    # One buffer per step of the chains, reused by every strip.
-    h_bufs = [np.empty(shape_p, np.uint8) for _ in range(_steps(widths))]
-    v_bufs = [np.empty(shape_p, np.uint8) for _ in range(_steps([t0]))]
+    # Forward running maxima (f[i] = max of src[i .. i + width - 1]) by doubling; the
+    # centred one of half-width hw is f of width 2 hw + 1 read hw places to the left.
+    h_plan = _doubling([2 * hw + 1 for hw in set(half)])
+    v_plan = _doubling([2 * t0 + 1])
+    h_bufs = [np.empty(shape_p, np.uint8) for _ in h_plan]
+    v_bufs = [np.empty(shape_p, np.uint8) for _ in v_plan[:-1]]
     o_buf = np.empty((min(h, strip), w), np.uint8)
     for y0 in range(0, h, strip):
         y1 = min(h, y0 + strip)
         a0, a1 = max(0, y0 - r), min(h, y1 + r)
         top, bottom = a0 - (y0 - r), (y1 + r) - a1
-        rows = y1 - y0 + 2 * r
+        rows, n_out = y1 - y0 + 2 * r, y1 - y0
         p = pad[:rows]
         p[:top] = 0
         p[rows - bottom:] = 0
         load(a0, a1, p[top: rows - bottom, hmax: hmax + w])
-        # Horizontal running maxima of every half-width a kernel row has.
-        by_width: Dict[int, np.ndarray] = {0: p}
-        src, cur, i = p, 0, 0
-        for target in widths:
-            while cur < target:
-                dst = h_bufs[i][:rows]
-                cur = _grow(src, cur, target, 1, dst)
-                src, i = dst, i + 1
-            by_width[target] = src
-        # Vertical running maximum of the widest rows, then the narrower rows one by one.
-        src, cur, i = by_width[hmax], 0, 0
-        while cur < t0:
-            dst = v_bufs[i][:rows]
-            cur = _grow(src, cur, t0, 0, dst)
-            src, i = dst, i + 1
-        o = o_buf[: y1 - y0]
-        o[...] = src[r: r + y1 - y0, hmax: hmax + w]
+        # Horizontal: every width a kernel row has (buffer columns 0 .. end - b).
+        by_width: Dict[int, np.ndarray] = {1: p}
+        src = p
+        for (width, b), buf in zip(h_plan, h_bufs):
+            dst = buf[:rows]
+            n = dst.shape[1]
+            cv2.max(src[:, : n - b], src[:, b:], dst=dst[:, : n - b])
+            by_width[width] = src = dst
+        widest = by_width[2 * hmax + 1]                 # centred: columns 0 .. w - 1
+        o = o_buf[:n_out]
+        # Vertical over the widest rows (offsets -t0 .. t0); the last step writes o.
+        src, start = widest, r - t0                     # o's row i is src's row i + start
+        if not v_plan:
+            o[...] = src[start: start + n_out, :w]
+        for i, (_, b) in enumerate(v_plan):
+            if i == len(v_plan) - 1:
+                cv2.max(src[start: start + n_out, :w], src[start + b: start + b + n_out, :w],
+                        dst=o)
+            else:
+                dst = v_bufs[i][:rows]
+                cv2.max(src[: rows - b], src[b:], dst=dst[: rows - b])
+                src = dst
+        # The narrower rows, two shifted maxima each.
         for dy in range(t0 + 1, r + 1):
-            b = by_width[half[dy]]
-            cv2.max(o, b[r + dy: r + dy + y1 - y0, hmax: hmax + w], dst=o)
-            cv2.max(o, b[r - dy: r - dy + y1 - y0, hmax: hmax + w], dst=o)
+            hw = half[dy]
+            f, c = by_width[2 * hw + 1], hmax - hw
+            cv2.max(o, f[r + dy: r + dy + n_out, c: c + w], dst=o)
+            cv2.max(o, f[r - dy: r - dy + n_out, c: c + w], dst=o)
         emit(y0, y1, o)
 
 
-def _steps(targets: List[int]) -> int:
-    """Number of `_grow` steps from half-width 0 through the (sorted) targets."""
-    cur, n = 0, 0
-    for half in targets:
-        while cur < half:
-            cur = cur + (1 if cur == 0 else min(cur, half - cur))
-            n += 1
-    return n
+def _doubling(widths: List[int]) -> List[Tuple[int, int]]:
+    """Steps (new width, shift b) that make forward running maxima of all the widths from
+    width 1: width a + b = max(width a, width a shifted by b), b <= a."""
+    steps: List[Tuple[int, int]] = []
+    cur = 1
+    for target in sorted(set(widths)):
+        while cur < target:
+            b = min(cur, target - cur)
+            cur += b
+            steps.append((cur, b))
+    return steps
