@@ -19,8 +19,9 @@ if absent), exactly as its README says: `bfs_frontiers.cpp` built with `g++ -O2`
 `make_map.py` grid of --reference-size cells (4000), `to_mapserver.py`'s YAML + PGM loaded
 with ascc_common.map_io.load_map, the same robot cell; best of --repeat for both, in the
 same run, and the ratio ours / C++ (the issue's figure: under 0.5 is the goal); ours also
-as CPU time (time.process_time, best of --repeat), steadier than wall time on a loaded
-machine.
+as CPU time (time.process_time, best and mean of --repeat), and the C++ search's mean CPU
+time (the process CPU time of a run with 11 searches minus that of a run with 1), so that
+the CPU ratio can be given beside the wall-time one: steadier on a loaded machine.
 
 `--against REV` (with --only compare) checks a change of the search against the package at
 git revision REV (its src/frontier_detector extracted beside this one): identical plans
@@ -36,6 +37,7 @@ alternating, best of --repeat.
 import argparse
 import importlib
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -122,6 +124,25 @@ def _run(cmd, cwd: str) -> str:
     return subprocess.run(cmd, cwd=cwd, check=True, capture_output=True, text=True).stdout
 
 
+CPP_CPU_SEARCHES = 10        # extra searches of the C++ run whose CPU time is measured
+
+
+def _child_cpu_ms(cmd, cwd: str) -> float:
+    """CPU time [ms] (user + system) of one run of cmd."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    _run(cmd, cwd)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return 1e3 * ((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime))
+
+
+def cpp_cpu_per_search(cmd, cwd: str) -> float:
+    """Mean CPU time [ms] of one C++ search: runs with 1 + CPP_CPU_SEARCHES searches and with
+    1 search (the same start-up and map loading), best of 3 each, difference / searches."""
+    one = min(_child_cpu_ms(cmd + ["1"], cwd) for _ in range(3))
+    many = min(_child_cpu_ms(cmd + [str(1 + CPP_CPU_SEARCHES)], cwd) for _ in range(3))
+    return (many - one) / CPP_CPU_SEARCHES
+
+
 def reference(ref_dir: str, n: int, repeat: int, params: PlannerParams) -> int:
     """The shared reference's steps (its README), then ours on its map_server files."""
     need = ("bfs_frontiers.cpp", "make_map.py", "to_mapserver.py")
@@ -150,16 +171,18 @@ def reference(ref_dir: str, n: int, repeat: int, params: PlannerParams) -> int:
             return 1
         # Interleaved, so that both see the same machine load.
         cpp_ms, ours_ms, result, cpp_out = float("inf"), float("inf"), None, ""
-        ours_cpu = float("inf")
+        ours_cpu = []
+        cmd = [exe, raw, str(w), str(h), str(rx), str(ry)]
         for _ in range(repeat):
-            cpp_out = _run([exe, raw, str(w), str(h), str(rx), str(ry), "1"], tmp)
+            cpp_out = _run(cmd + ["1"], tmp)
             cpp_ms = min(cpp_ms, float(dict(kv.split("=") for kv in cpp_out.split())["best_ms"]))
             t0, c0 = time.perf_counter(), time.process_time()
             res = plan(grid, info, (x, y), params)
             wall = (time.perf_counter() - t0) * 1e3
-            ours_cpu = min(ours_cpu, (time.process_time() - c0) * 1e3)
+            ours_cpu.append((time.process_time() - c0) * 1e3)
             if wall < ours_ms:
                 ours_ms, result = wall, res
+        cpp_cpu = cpp_cpu_per_search(cmd, tmp)
     t = result.timings_ms
     known = 100.0 * float(np.count_nonzero(grid != -1)) / grid.size
     print(f"reference {ref_dir}: {n} x {n} cells at {info.resolution} m, {known:.1f} % known, "
@@ -168,8 +191,12 @@ def reference(ref_dir: str, n: int, repeat: int, params: PlannerParams) -> int:
     print(f"  ours plan():           {ours_ms:8.1f} ms   (phase1 {t['phase1']:.1f}, phase2 "
           f"{t['phase2']:.1f}, phase3 {t['phase3']:.1f}, utility {t['utility']:.1f}; "
           f"{result.frontiers.n_candidates} candidates, status {result.status})")
-    print(f"  ours plan(), CPU time: {ours_cpu:8.1f} ms   (process_time, best of {repeat})")
-    print(f"  ratio ours / C++:      {ours_ms / cpp_ms:8.2f}")
+    print(f"  ours plan(), CPU time: {min(ours_cpu):8.1f} ms   (process_time, best of {repeat}; "
+          f"mean {np.mean(ours_cpu):.1f})")
+    print(f"  C++ CPU time:          {cpp_cpu:8.1f} ms   (mean per search: the process CPU time "
+          f"of a run with {1 + CPP_CPU_SEARCHES} searches minus one with 1, best of 3 each)")
+    print(f"  ratio ours / C++:      {ours_ms / cpp_ms:8.2f}   (wall, best of each)")
+    print(f"  CPU ratio ours / C++:  {np.mean(ours_cpu) / cpp_cpu:8.2f}   (mean CPU per search)")
     return 0
 
 
