@@ -26,8 +26,8 @@ the CPU ratio can be given beside the wall-time one: steadier on a loaded machin
 `--against REV` (with --only compare) checks a change of the search against the package at
 git revision REV (its src/frontier_detector extracted beside this one): identical plans
 (status, candidates, path lengths, scores, goal) on --maps random partially explored
-offices per strategy, then both versions' CPU time per plan on the reference map,
-alternating, best of --repeat.
+offices per strategy, then both versions' CPU time per plan and per part (phases 1-3,
+utility) on the reference map, alternating, best of --repeat.
 
     rosrun ascc_eval bench_frontiers.py [--sizes 1000 4000] [--repeat 5]
         [--only synthetic|reference|compare] [--reference-dir DIR] [--reference-size 4000]
@@ -320,15 +320,27 @@ def compare(args) -> int:
                                             base, str(rx)], args.reference_dir).split())
             grid, info = load_map(base + ".yaml")
             cpu = {"old": float("inf"), "new": float("inf")}
+            parts = {"old": {}, "new": {}}
+            # The plans time their parts with time.perf_counter: switched to the process's
+            # CPU clock for this loop, they give CPU time per part (wall time means little
+            # on a loaded machine).
+            wall_clock, time.perf_counter = time.perf_counter, time.process_time
             for _ in range(args.repeat):
                 for key, fn, params in (("old", old.plan, old.PlannerParams()),
                                         ("new", plan, PlannerParams())):
                     t0 = time.process_time()
-                    fn(grid, info, (x, y), params)
+                    res = fn(grid, info, (x, y), params)
                     cpu[key] = min(cpu[key], (time.process_time() - t0) * 1e3)
+                    for name, ms in res.timings_ms.items():
+                        parts[key][name] = min(parts[key].get(name, float("inf")), ms)
+            time.perf_counter = wall_clock
             print(f"reference map {n} x {n}: CPU per plan (process_time, best of "
                   f"{args.repeat}, alternating): {args.against} {cpu['old']:.1f} ms, "
                   f"this tree {cpu['new']:.1f} ms")
+            for key, label in (("old", args.against), ("new", "this tree")):
+                print(f"  {label} per part (CPU, best of {args.repeat}): " + ", ".join(
+                    f"{name} {parts[key][name]:.1f}"
+                    for name in ("phase1", "phase2", "phase3", "utility")))
     return 1 if differing else 0
 
 
