@@ -401,3 +401,14 @@ def test_phase1_cells_by_strips_equal_the_phase1_mask(strip_cells, monkeypatch):
         rr, cc = phase1_cells(g, n)
         r2, c2 = np.nonzero(phase1_mask(g, n))
         assert rr.size > 0 and np.array_equal(rr, r2) and np.array_equal(cc, c2)
+
+
+def test_unique_inverse_equals_numpy_unique():
+    from frontier_detector.frontiers import _unique_inverse
+
+    rng = np.random.default_rng(5)
+    for values in (rng.integers(0, 40, 300), np.array([7]), np.zeros(0, np.int64),
+                   np.array([3, 3, 0, 12, 3])):
+        u, inv = _unique_inverse(values)
+        u2, inv2 = np.unique(values, return_inverse=True)
+        assert np.array_equal(u, u2) and np.array_equal(inv, inv2)

@@ -265,6 +265,17 @@ def label_cells(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     return labels
 
 
+def _unique_inverse(values: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """np.unique(values, return_inverse=True) for small non-negative integers, by a table
+    of the values present and its cumulative sum instead of a sort."""
+    values = np.asarray(values, dtype=np.int64)
+    if values.size == 0:
+        return values.copy(), values.copy()
+    present = np.zeros(int(values.max()) + 1, bool)
+    present[values] = True
+    return np.flatnonzero(present), (np.cumsum(present) - 1)[values]
+
+
 def group_clusters(rows: np.ndarray, cols: np.ndarray, segment: np.ndarray,
                    cluster_cells: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Phase 3 on sparse cells: cut each segment along its main axis into pieces no longer
@@ -273,7 +284,7 @@ def group_clusters(rows: np.ndarray, cols: np.ndarray, segment: np.ndarray,
     Returns (cluster id per cell, centroid (row, col) per cluster as an (n, 2) array,
     cells per cluster).
     """
-    seg_ids, seg = np.unique(segment, return_inverse=True)
+    seg_ids, seg = _unique_inverse(segment)
     n_seg = seg_ids.size
     r, c = rows.astype(np.float64), cols.astype(np.float64)
     cnt = np.bincount(seg, minlength=n_seg).astype(np.float64)
@@ -295,7 +306,7 @@ def group_clusters(rows: np.ndarray, cols: np.ndarray, segment: np.ndarray,
     piece = np.minimum(((t - tmin[seg]) / (extent[seg] / pieces[seg])).astype(np.int64),
                        pieces[seg] - 1)
     offsets = np.concatenate(([0], np.cumsum(pieces)[:-1]))
-    _, cluster = np.unique(offsets[seg] + piece, return_inverse=True)
+    _, cluster = _unique_inverse(offsets[seg] + piece)
     n_cl = int(cluster.max()) + 1 if cluster.size else 0
     size = np.bincount(cluster, minlength=n_cl)
     cr = np.bincount(cluster, r, n_cl) / size
