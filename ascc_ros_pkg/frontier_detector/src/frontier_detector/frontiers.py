@@ -331,7 +331,6 @@ def patches(image: np.ndarray, centres: np.ndarray, half: int, fill=0) -> np.nda
     h, w = image.shape
     side = 2 * half + 1
     n = centres.shape[0]
-    out = np.full((n, side, side), fill, image.dtype)
     r0, c0 = centres[:, 0] - half, centres[:, 1] - half
     whole = (r0 >= 0) & (c0 >= 0) & (r0 + side <= h) & (c0 + side <= w)
     if whole.any():
@@ -339,6 +338,10 @@ def patches(image: np.ndarray, centres: np.ndarray, half: int, fill=0) -> np.nda
         s0, s1 = image.strides
         windows = as_strided(image, shape=(h - side + 1, w - side + 1, side, side),
                              strides=(s0, s1, s0, s1), writeable=False)
+        if whole.all():                                   # the usual case: no fill needed
+            return windows[r0, c0]
+    out = np.full((n, side, side), fill, image.dtype)
+    if whole.any():
         out[whole] = windows[r0[whole], c0[whole]]
     for i in np.flatnonzero(~whole):
         a0, a1 = max(0, r0[i]), min(h, r0[i] + side)
