@@ -169,8 +169,8 @@ def phase1_cells(sub: np.ndarray, neighbourhood_cells: int
     n = neighbourhood_cells
     kernel = np.ones((2 * n + 1, 2 * n + 1), np.uint8)
     step = max(1, PHASE1_STRIP_CELLS // max(1, w))
-    rows, cols = [], []
-    for y0 in range(0, h, step):
+    rows, cols = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
+    for y0 in range(0, h if w else 0, step):
         y1 = min(h, y0 + step)
         a0, a1 = max(0, y0 - n), min(h, y1 + n)
         # On the grid's bytes (FREE 0, UNKNOWN 255, the largest): the neighbourhood's
@@ -225,8 +225,9 @@ def label_cells(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Label 8-connected groups of sparse cells (0..n_groups-1 per cell).
 
     Union-find done with whole-array operations: edges to the E, SW, S and SE neighbour
-    (looked up by binary search), then rounds of hooking each edge's roots onto the smaller
-    one followed by pointer jumping, until every edge joins cells of one root.
+    (the next key; one binary search for the row below), then rounds of hooking each
+    edge's roots onto the smaller one followed by pointer jumping, until every edge joins
+    cells of one root.
     """
     n = rows.size
     if n == 0:
@@ -235,13 +236,17 @@ def label_cells(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     lin = (rows.astype(np.int64) + 1) * width + (cols.astype(np.int64) + 1)
     order = np.argsort(lin, kind="stable")
     key = lin[order]
-    src, dst = [], []
-    for off in (1, width - 1, width, width + 1):
-        pos = np.searchsorted(key, key + off)
+    # The keys are sorted and unique: the E neighbour, if any, is the next key; the SW, S
+    # and SE neighbours (consecutive keys) follow one another from one binary search.
+    east = np.flatnonzero(key[1:] - key[:-1] == 1)
+    src, dst = [east], [east + 1]
+    pos = np.searchsorted(key, key + (width - 1))
+    for off in (width - 1, width, width + 1):
         pos_c = np.minimum(pos, n - 1)
         hit = key[pos_c] == key + off
-        src.append(np.nonzero(hit)[0])
+        src.append(np.flatnonzero(hit))
         dst.append(pos_c[hit])
+        pos = pos + hit                          # the next offset's key sits one further
     u, v = np.concatenate(src), np.concatenate(dst)
     parent = np.arange(n, dtype=np.int64)
     while u.size:
