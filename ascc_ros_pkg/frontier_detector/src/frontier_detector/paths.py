@@ -92,27 +92,27 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
         # anchored at the window's start), read at every block's first column.
         any_col = cv2.dilate(cross, np.ones((1, k), np.uint8), anchor=(0, 0))[:, ::k]
         sp[1:-2, 1:-1] = any_col > 0
-    # Padding by one block on every side keeps neighbour indices from wrapping around.
-    west = _shift(ep, 0, -1)
-    north = _shift(sp, -1, 0)
-    # Diagonal move allowed if an L-shaped detour through a neighbour exists.
-    se = (ep & _shift(sp, 0, 1)) | (sp & _shift(ep, 1, 0))
-    sw = (west & _shift(sp, 0, -1)) | (sp & _shift(west, 1, 0))
-    ne = (ep & _shift(north, 0, 1)) | (north & _shift(ep, -1, 0))
-    nw = (west & _shift(north, 0, -1)) | (north & _shift(west, -1, 0))
-    allow = np.zeros((hc + 2, wc + 2), np.uint8)
-    for bit, m in enumerate((ep, west, sp, north, se, sw, ne, nw)):
-        allow |= m.astype(np.uint8) << np.uint8(bit)
-    return CoarseGraph(k, (hc + 2, wc + 2), allow.ravel())
+    # Padding by one block on every side keeps neighbour indices from wrapping around; the
+    # padding blocks allow no move, so the bits are computed for the inner blocks only, on
+    # shifted views of the 0/1 crossing arrays (no shifted copies).
+    e, s = ep.view(np.uint8), sp.view(np.uint8)
+    hp, wp = hc + 2, wc + 2
 
+    def at(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
+        """a[i + dr, j + dc] for the inner blocks (i, j)."""
+        return a[1 + dr: hp - 1 + dr, 1 + dc: wp - 1 + dc]
 
-def _shift(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
-    """b[i, j] = a[i + dr, j + dc] (False outside)."""
-    b = np.zeros_like(a)
-    h, w = a.shape
-    b[max(0, -dr): h - max(0, dr), max(0, -dc): w - max(0, dc)] = \
-        a[max(0, dr): h - max(0, -dr), max(0, dc): w - max(0, -dc)]
-    return b
+    allow = np.zeros((hp, wp), np.uint8)
+    inner = allow[1:-1, 1:-1]
+    # Bits: E, W, S, N; a diagonal move needs one of its two L-shaped detours.
+    for bit, m in enumerate((
+            at(e, 0, 0), at(e, 0, -1), at(s, 0, 0), at(s, -1, 0),
+            (at(e, 0, 0) & at(s, 0, 1)) | (at(s, 0, 0) & at(e, 1, 0)),          # SE
+            (at(e, 0, -1) & at(s, 0, -1)) | (at(s, 0, 0) & at(e, 1, -1)),       # SW
+            (at(e, 0, 0) & at(s, -1, 1)) | (at(s, -1, 0) & at(e, -1, 0)),       # NE
+            (at(e, 0, -1) & at(s, -1, -1)) | (at(s, -1, 0) & at(e, -1, -1)))):  # NW
+        inner |= m << np.uint8(bit) if bit else m
+    return CoarseGraph(k, (hp, wp), allow.ravel())
 
 
 def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.ndarray:
