@@ -14,7 +14,12 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
     and the odometry's own end error for comparison;
   * "ideal": the accuracy of a map built from the same scans at the true poses of the
     filter updates (what the map building and the measure allow with perfect
-    localisation: the rest of the gap is the pose error's).
+    localisation: the rest of the gap is the pose error's);
+  * "along" / "across": the largest pose error along / across the robot's true heading
+    (on the corridor: along / across the corridor);
+  * simulator worlds: ``ascc_eval.map_quality`` on the final map: the sides of the outer
+    outline, map minus floor plan in % ("sides_%"), and the largest corner angle error
+    ("corner"); ``--save DIR`` also writes each map (map_server files) and its overlay PNG.
 
 Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
 caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
@@ -136,6 +141,28 @@ class SimWorld:
         self.route = ROUTES[name]
         self.rng = rng
 
+        self.plan, self.plan_info = world.map.occupancy, world.map.info
+
+    def quality(self, grid, info, save=None):
+        """map_quality's sides (outer outline, % of the plan) and worst corner [deg]; the
+        map frame is the world frame (the odometry starts at the true start)."""
+        from ascc_eval import map_quality as Q
+
+        q = Q.measure(grid, info, self.plan, self.plan_info, self.truth, self.route[0])
+        if save:
+            Q.write_overlay(save + "_quality.png", q, grid, info, self.plan, self.plan_info,
+                            (0.0, 0.0, 0.0))
+        sides, corner = [], 0.0
+        rows = [r for r in q.sides() if r["outline"] == 0]
+        if len(rows) > 8:  # rooms and doors (the office): no sides to speak of
+            return [], float("nan")
+        for r in rows:
+            if r["plan_m"] and r["map_m"] is not None:
+                sides.append(100.0 * (r["map_m"] - r["plan_m"]) / r["plan_m"])
+            if r["plan_deg"] is not None and r["map_deg"] is not None:
+                corner = max(corner, abs(r["map_deg"] - r["plan_deg"]))
+        return sides, corner
+
     def check_route(self, traj):
         ix, iy = self.info.world_to_cell(traj[:, 0], traj[:, 1])
         low = float(self.clearance[iy, ix].min())
@@ -160,7 +187,7 @@ def odometry(kind, traj, rng):
                             robot["encoder_noise_m_per_sqrt_m"])
 
 
-def run(world, params, seed, odom_kind):
+def run(world, params, seed, odom_kind, save=None):
     rng = np.random.default_rng(seed)
     traj = S.waypoint_trajectory(world.route, v=0.3, w=0.8, dt=SCAN_PERIOD_S)
     if hasattr(world, "check_route"):
@@ -169,6 +196,7 @@ def run(world, params, seed, odom_kind):
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     spec = world.spec
     times, walls, errors, statuses = [], [], [], {}
+    along, across = [0.0], [0.0]
     true_poses, scans = [], []  # of the updates, for the map at the true poses
     k = 0
     for k in range(0, traj.shape[0], FEED_EVERY):
@@ -185,14 +213,28 @@ def run(world, params, seed, odom_kind):
             times.append(cpu)
             walls.append(wall)
             est = compose(mapper.map_to_odom(), odom[k])
-            errors.append(math.hypot(est[0] - traj[k, 0], est[1] - traj[k, 1]))
+            ex, ey = est[0] - traj[k, 0], est[1] - traj[k, 1]
+            errors.append(math.hypot(ex, ey))
+            ch, sh = math.cos(traj[k, 2]), math.sin(traj[k, 2])
+            along.append(abs(ch * ex + sh * ey))
+            across.append(abs(-sh * ex + ch * ey))
     est_grid, est_info = mapper.occupancy()
     acc = map_agreement(est_grid, est_info, world.truth, world.info)
     ideal = rebuild_counts(lambda: ParticleMaps(1, est_info), np.array(true_poses), scans)
     ideal_acc = map_agreement(ideal.occupancy(0, mapper.cfg.rbpf.occ_thresh), ideal.info,
                               world.truth, world.info)
     final = compose(mapper.map_to_odom(), odom[k])
+    sides, corner = [], float("nan")
+    if hasattr(world, "quality"):
+        prefix = None
+        if save:
+            from ascc_common.map_io import save_map
+
+            prefix = os.path.join(save, "%s_seed%d" % (world.name, seed))
+            save_map(prefix + ".yaml", est_grid, est_info)
+        sides, corner = world.quality(est_grid, est_info, prefix)
     return {
+        "along": max(along), "across": max(across), "sides": sides, "corner": corner,
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
         "ms_max": 1e3 * float(np.max(times)), "ms_wall": 1e3 * float(np.mean(walls)),
@@ -215,32 +257,37 @@ def main():
     ap.add_argument("--particles", type=int, default=None, help="override the config")
     ap.add_argument("--odometry", choices=("sim", "harsh"), default="sim",
                     help="odometry error model (see odometry())")
+    ap.add_argument("--save", metavar="DIR", help="write the maps and overlays here")
     add_parameter_arguments(ap)
     args = ap.parse_args()
+    if args.save:
+        os.makedirs(args.save, exist_ok=True)
     cv2.setNumThreads(1)
     params = parameters_from_arguments(ap, args)
     if args.particles:
         params["particles"] = args.particles
     print("mapper benchmark, %s odometry, parameters: %s" % (args.odometry, " ".join(
         "%s=%s" % kv for kv in sorted(params.items()))))
-    header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %7s %11s %6s %7s %6s"
-              % ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
-                 "free", "occ", "known", "end_err", "max_err", "odom", "map", "maps", "ideal",
-                 "cpu_s"))
+    header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %6s %6s %7s %11s %6s %7s "
+              "%6s  %s" % ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms",
+                           "accuracy", "free", "occ", "known", "end_err", "max_err", "along",
+                           "across", "odom", "map", "maps", "ideal", "cpu_s",
+                           "sides_% corner_deg"))
     print(header)
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
             rng = np.random.default_rng(1000 + seed)
             world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
-            r = run(world, params, seed, args.odometry)
+            r = run(world, params, seed, args.odometry, args.save)
             a = r["acc"]
             print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
-                  "%6.3fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f"
+                  "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f  %s %.2f"
                   % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
                      r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
                      100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
-                     r["odom_err"], r["map_m"][0], r["map_m"][1], r["maps_mb"],
-                     100 * r["ideal"], r["cpu_s"]))
+                     r["along"], r["across"], r["odom_err"], r["map_m"][0], r["map_m"][1],
+                     r["maps_mb"], 100 * r["ideal"], r["cpu_s"],
+                     " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"]))
             sys.stdout.flush()
 
 
