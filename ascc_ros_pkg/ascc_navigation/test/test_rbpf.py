@@ -253,6 +253,99 @@ def test_motion_prior_keeps_pose_in_an_unconstrained_direction():
     assert abs(slam.best_pose[1] - pose[1]) < 0.02
 
 
+def _fields_after_mapping(world, poses, pose, **cfg_kw):
+    """A one-particle filter that mapped the scans taken at ``poses`` (true); its likelihood
+    fields and the end points of the scan at ``pose`` that an update would match (those
+    within the previous scan's reach, as ``RbpfSlam.update`` selects them)."""
+    cfg = R.RbpfConfig(particles=1, xmin=0, ymin=0, xmax=world[1].width * world[1].resolution,
+                       ymax=world[1].height * world[1].resolution, **cfg_kw)
+    slam = R.RbpfSlam(cfg, seed=0)
+    kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+    slam.start(poses[0], _prepare(_room_scan(poses[0], world=world), **kw))
+    for p in poses[1:]:
+        slam.poses[:] = p
+        slam._register(_prepare(_room_scan(p, world=world), **kw))
+    slam.poses[:] = pose
+    scan = _prepare(_room_scan(pose, world=world), **kw)
+    moved = math.hypot(*(np.asarray(pose) - poses[-1])[:2])
+    pts = scan.match[scan.match_range <= scan.max_urange - moved - cfg.new_area_margin]
+    return slam, slam._fields(pts), pts
+
+
+def _corridor_world(length=40.0, width=3.0):
+    info = GridInfo.from_bounds(0.05, 0.0, 0.0, length, width)
+    truth = np.zeros(info.shape, dtype=np.int8)
+    truth[[0, -1], :] = OCCUPIED
+    return truth, info
+
+
+def test_scan_information_of_a_corridor_has_a_flat_direction_along_it():
+    pose = np.array([10.0, 1.5, 0.0])
+    slam, fields, pts = _fields_after_mapping(_corridor_world(), [pose - [2, 0, 0],
+                                                                  pose - [0.25, 0, 0]], pose)
+    info = R.scan_information(*fields.gradients(pose[None], np.zeros(1, int), pts),
+                              slam.cfg.sigma)[0]
+    vals, vecs = np.linalg.eigh(info[:2, :2])
+    # across the corridor (y): many beams; along it (x): nothing
+    assert abs(vecs[1, 1]) > 0.999 and vals[1] > 1e5
+    assert vals[0] < 1e-2 * vals[1]
+    # in a room corner every direction is constrained
+    world = S.office_world()
+    corner = np.array([4.0, 1.8, 0.1])
+    slam, fields, pts = _fields_after_mapping(world, [corner], corner)
+    info = R.scan_information(*fields.gradients(corner[None], np.zeros(1, int), pts),
+                              slam.cfg.sigma)[0]
+    assert np.linalg.eigvalsh(info[:2, :2])[0] > 0.05 * np.linalg.eigvalsh(info[:2, :2])[1]
+
+
+def test_degeneracy_projection_keeps_the_prediction_only_where_the_scan_is_flat():
+    pose = np.array([10.0, 1.5, 0.0])
+    slam, fields, pts = _fields_after_mapping(_corridor_world(), [pose - [2, 0, 0],
+                                                                  pose - [0.25, 0, 0]], pose)
+    predicted = pose + [0.05, 0.04, 0.01]     # what the motion model said
+    matched = pose + [0.30, 0.0, 0.0]         # the matcher fixed y and theta and slid in x
+    std = 0.0075  # srr 0.03 m/m over 0.25 m
+    args = (fields, pts, slam.cfg.sigma, predicted[None], matched[None], np.zeros(1, int), std)
+    out, flat = R.degeneracy_projection(*args, 1.0)
+    assert flat.tolist() == [True]
+    assert abs(out[0, 0] - predicted[0]) < 0.005           # along: the prediction
+    assert abs(out[0, 1] - pose[1]) < 0.005                 # across: the scan's
+    assert out[0, 2] == matched[2]                          # heading: the matcher's
+    out, flat = R.degeneracy_projection(*args, 0.0)         # off: the matcher's pose
+    assert not flat[0] and np.allclose(out[0], matched)
+    out, flat = R.degeneracy_projection(*args, 1e12)        # nothing trusted: prediction
+    assert flat[0] and np.allclose(out[0, :2], predicted[:2]) and out[0, 2] == matched[2]
+    # in a room corner the matcher's correction is kept in full
+    world = S.office_world()
+    corner = np.array([4.0, 1.8, 0.1])
+    slam, fields, pts = _fields_after_mapping(world, [corner], corner)
+    out, flat = R.degeneracy_projection(fields, pts, slam.cfg.sigma, (corner + 0.03)[None],
+                                        corner[None], np.zeros(1, int), std, 1.0)
+    assert not flat[0] and np.allclose(out[0], corner)
+
+
+def test_degenerate_directions_follow_the_odometry_in_a_featureless_corridor():
+    # Exact odometry, scans of a corridor without features: with degeneracy-aware matching
+    # the along-corridor position is the odometry's up to the sampled motion noise.
+    world = _corridor_world()
+    cfg = R.RbpfConfig(particles=8, xmin=0, ymin=0, xmax=40, ymax=3, srr=0.01,
+                       motion_prior=0.0, degenerate_info=1.0)
+    slam = R.RbpfSlam(cfg, seed=3)
+    kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+    pose = np.array([10.0, 1.5, 0.0])
+    slam.start(pose, _prepare(_room_scan(pose, world=world), **kw))
+    flat = 0
+    for _ in range(12):
+        new = pose + [0.25, 0.0, 0.0]
+        flat += slam.update(P.relative(pose, new),
+                            _prepare(_room_scan(new, world=world), **kw)).degenerate
+        pose = new
+    assert flat == 12 * 8
+    # 12 steps of srr * 0.25 m = 2.5 mm noise: a random walk of ~9 mm (1 sigma)
+    assert abs(slam.best_pose[0] - pose[0]) < 0.03
+    assert abs(slam.best_pose[1] - pose[1]) < 0.02
+
+
 # ---------------------------------------------------------------- mapper front end
 
 def _scan_input(stamp, ranges):

@@ -37,6 +37,7 @@ from typing import Optional, Tuple
 
 import cv2
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from ascc_common.grid import GridInfo
 from ascc_common.params import param
@@ -105,6 +106,18 @@ class RbpfConfig:
     recover_step: float = param(0.035, "[rad] wide heading search step")
     recover_gain: float = param(0.1, "[fraction of the perfect match score] the wide search's "
                                 "pose is kept if it scores this much better")
+    # Not in gmapping: degeneracy-aware matching (Zhang, Kaess & Singh 2016, "On degeneracy of
+    # optimization-based state estimation problems"). After the hill climb, the scan's
+    # information about each particle's position (Gauss-Newton, from the likelihood field's
+    # gradients at the matched beam end points, with the score's own end-point std sigma)
+    # is compared with the motion model's for this update (1 / sigma_xy^2); along its
+    # eigen-directions where the ratio is below degenerate_info the scan tells less than
+    # the odometry does, and the particle keeps its motion prediction (the sampled pose)
+    # there: the matcher's slide along a featureless corridor is dropped. The heading stays
+    # the matcher's. 0 disables it.
+    degenerate_info: float = param(0.0, "[-] scan / motion-model information ratio below "
+                                   "which a direction keeps the motion prediction; 0 off "
+                                   "(not gmapping)")
 
     def validate(self) -> None:
         if self.particles < 1:
@@ -114,6 +127,8 @@ class RbpfConfig:
                 raise ValueError("%s must be > 0" % name)
         if not (self.xmax > self.xmin and self.ymax > self.ymin):
             raise ValueError("xmin..xmax and ymin..ymax must be non-empty ranges")
+        if not self.degenerate_info >= 0.0:
+            raise ValueError("degenerate_info must be >= 0")
         if not 0.0 <= self.occ_thresh < 1.0:
             raise ValueError("occ_thresh must be in [0, 1)")
         if not (0.0 <= self.recover_score <= 1.0 and self.recover_angle >= 0.0
@@ -138,6 +153,7 @@ class UpdateStats:
     mean_score: float = 0.0    # mean match score over particles [beams]
     matched: int = 0           # particles whose matched pose was accepted
     recovered: int = 0         # particles moved by the wide heading search
+    degenerate: int = 0        # particles that kept the prediction in some direction
     grown: bool = False        # the map grew
 
 
@@ -186,6 +202,67 @@ def sample_motion(poses: np.ndarray, delta: np.ndarray, cfg: RbpfConfig,
     noisy[:, 1] = delta[1] + s_xy * rng.standard_normal(n)
     noisy[:, 2] = delta[2] + s_th * rng.standard_normal(n)
     return compose(poses, noisy)
+
+
+NORMAL_BEAMS = 5  # matched beams (in scan order) whose field gradients make one normal
+_MIN_STD = 1e-3  # [m] floor of the prediction's position std (no motion: not zero)
+
+
+def scan_information(d: np.ndarray, gx: np.ndarray, gy: np.ndarray, rx: np.ndarray,
+                     ry: np.ndarray, sigma: float) -> np.ndarray:
+    """Gauss-Newton information (n, 3, 3) [1/m^2, 1/(m rad), 1/rad^2] that a matched scan
+    carries about each pose (x, y, theta) under the match score's own noise model (beam end
+    points scattered with std ``sigma`` about the nearest wall): sum_b w_b J_b^T J_b /
+    sigma^2, with w_b = exp(-d_b^2 / (2 sigma^2)) the beam's weight in the score and J_b
+    the gradient of its end point's distance with respect to the pose: (n_b, n_b x r_b),
+    r_b the end point's offset from the pose and n_b the wall's unit normal there.
+
+    n_b is the principal direction of the distance field's gradients (bilinear, per end
+    point) over NORMAL_BEAMS neighbouring beams, i.e. over a stretch of the same surface,
+    as point-to-plane ICP takes normals from neighbouring points: a wall drawn in cells is
+    ragged at the cell scale (gaps where beams grazed it), and the raw gradients' +-
+    components along the wall, which cancel in the score, would otherwise count as
+    information along it. (The gradients' sign flips across the wall's cell, so their
+    outer products are averaged, not the vectors.)"""
+    d = d.astype(np.float64)
+    w = np.exp(-d * d / (2.0 * sigma * sigma))
+    gx = gx.astype(np.float64)
+    gy = gy.astype(np.float64)
+    k = min(NORMAL_BEAMS, d.shape[-1]) or 1
+    txx = uniform_filter1d(gx * gx, k, axis=-1, mode="nearest")
+    tyy = uniform_filter1d(gy * gy, k, axis=-1, mode="nearest")
+    txy = uniform_filter1d(gx * gy, k, axis=-1, mode="nearest")
+    phi = 0.5 * np.arctan2(2.0 * txy, txx - tyy)
+    nx, ny = np.cos(phi), np.sin(phi)
+    jt = ny * rx - nx * ry
+    jac = np.stack([nx, ny, jt], axis=-1)                              # (n, M, 3)
+    return np.einsum("nm,nmi,nmj->nij", w, jac, jac) / (sigma * sigma)
+
+
+def degeneracy_projection(fields: _LikelihoodFields, pts: np.ndarray, sigma: float,
+                          predicted: np.ndarray, matched: np.ndarray, particles: np.ndarray,
+                          predicted_std: float, threshold: float
+                          ) -> Tuple[np.ndarray, np.ndarray]:
+    """Degeneracy-aware solution remapping (Zhang, Kaess & Singh 2016) of the matched poses
+    (n, 3), in position: the scan's information about (x, y) at the matched pose and
+    heading (the x, y block of ``scan_information``), in units of the motion model's
+    (times ``predicted_std``^2, the prediction's position std [m]), is split into
+    eigen-directions; the matcher's correction (matched - predicted) is kept along those
+    whose eigenvalue is >= threshold and dropped along the others, where the odometry knows
+    more than the scan. The heading stays the matcher's: the walls within the laser's reach
+    fix it at every update, unlike the position along a corridor, and the odometry's heading
+    is its weak part. Returns the poses and a mask of the particles that had a flat
+    direction."""
+    if matched.shape[0] == 0:
+        return matched, np.zeros(0, dtype=bool)
+    info = scan_information(*fields.gradients(matched, particles, pts), sigma)[:, :2, :2]
+    vals, vecs = np.linalg.eigh(info * predicted_std ** 2)                # ascending
+    good = (vals >= threshold).astype(float)                              # (n, 2)
+    corr = matched[:, :2] - predicted[:, :2]
+    coeff = np.einsum("nij,ni->nj", vecs, corr) * good                    # v_j . c, kept
+    out = matched.copy()
+    out[:, :2] = predicted[:, :2] + np.einsum("nij,nj->ni", vecs, coeff)
+    return out, (good < 1.0).any(axis=1)
 
 
 def _halve_full(counts_a: np.ndarray, counts_b: np.ndarray, full: np.ndarray) -> None:
@@ -399,6 +476,34 @@ class _LikelihoodFields:
         bottom = d01 + fu * (d11 - d01)
         return top + fv * (bottom - top)
 
+    def gradients(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray
+                  ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """At the end points ``pts`` (M, 2, base frame) seen from poses (n, 3) of particles
+        ``particle`` (n,): the bilinear distance [m], its gradient (d/dx, d/dy, [m/m]) and
+        the end points' offsets from the pose in the map frame (rx, ry [m]); each (n, M).
+        Off-window points clamp to the border (gradient 0 across it)."""
+        ru, rv = self.rotated(poses[:, None, 2], pts)
+        ru, rv = ru[:, 0], rv[:, 0]
+        xc, yc = self.cells(poses[:, 0], poses[:, 1])
+        u = np.clip(xc + ru, 0.0, self.w - 1.001)
+        v = np.clip(yc + rv, 0.0, self.h - 1.001)
+        iu = u.astype(np.int32)
+        iv = v.astype(np.int32)
+        fu = u - iu
+        fv = v - iv
+        idx = iv * np.int32(self.w) + iu
+        idx += (particle.astype(np.int32) * np.int32(self.band * self.w))[:, None]
+        d00 = self.dist.take(idx)
+        d10 = self.dist.take(idx + 1)
+        d01 = self.dist.take(idx + self.w)
+        d11 = self.dist.take(idx + self.w + 1)
+        top = d00 + fu * (d10 - d00)
+        bottom = d01 + fu * (d11 - d01)
+        inv = np.float32(1.0 / self.res)
+        gx = ((d10 - d00) + fv * ((d11 - d01) - (d10 - d00))) * inv
+        gy = (bottom - top) * inv
+        return top + fv * (bottom - top), gx, gy, ru * self.res, rv * self.res
+
     def distances(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
         """Interpolated distance [m] at the end points ``pts`` (M, 2, base frame) for poses
         (n, K, 3) of particles ``particle`` (n,) -> (n, K, M)."""
@@ -515,8 +620,17 @@ class RbpfSlam:
                                + [max(s_th, cfg.prior_min_theta) ** -2])
             matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var,
                                               self.poses, np.arange(cfg.particles))
+            recovered = np.zeros(cfg.particles, dtype=bool)
             if cfg.recover_score > 0.0:
-                stats.recovered = self._recover(matched, score, pts)
+                stats.recovered = self._recover(matched, score, pts, recovered)
+            if cfg.degenerate_info > 0.0:
+                keep = ~recovered  # a wide heading search's jump is the scan's, whole
+                matched[keep], flat = degeneracy_projection(
+                    fields, pts, cfg.sigma, self.poses[keep], matched[keep],
+                    np.nonzero(keep)[0], max(s_xy, _MIN_STD), cfg.degenerate_info)
+                stats.degenerate = int(flat.sum())
+                score[keep] = fields.match_score(fields.distances(
+                    matched[keep][:, None, :], np.nonzero(keep)[0], pts), cfg.sigma)[:, 0]
             accept = score >= cfg.minimum_score
             self.poses[accept] = matched[accept]
             stats.matched = int(accept.sum())
@@ -556,10 +670,12 @@ class RbpfSlam:
         margin = int(math.ceil((self.cfg.search_margin + self.cfg.match_radius) / self.cfg.delta))
         return _LikelihoodFields(self.maps, self.maps._window(u, v, margin), self.cfg, self._table)
 
-    def _recover(self, matched: np.ndarray, score: np.ndarray, pts: np.ndarray) -> int:
+    def _recover(self, matched: np.ndarray, score: np.ndarray, pts: np.ndarray,
+                 moved_mask: Optional[np.ndarray] = None) -> int:
         """Wide heading search for the particles whose matched score is below
-        recover_score * beams (see RbpfConfig); updates ``matched`` and ``score`` in place
-        and returns how many particles it moved."""
+        recover_score * beams (see RbpfConfig); updates ``matched`` and ``score`` (and
+        marks the moved particles in ``moved_mask``) in place and returns how many
+        particles it moved."""
         cfg = self.cfg
         beams = pts.shape[0]
         weak = np.nonzero(score < cfg.recover_score * beams)[0]
@@ -583,6 +699,8 @@ class RbpfSlam:
         moved = weak[better]
         matched[moved] = refined[better]
         score[moved] = refined_score[better]
+        if moved_mask is not None:
+            moved_mask[moved] = True
         return int(moved.size)
 
     def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray, prior: np.ndarray,
