@@ -208,6 +208,45 @@ def test_episodes_end_at_walking_or_a_gap():
     assert sm.episode is None
 
 
+def test_a_walk_the_recognizer_missed_ends_the_stay():
+    """Sitting at A, a walk to B 2.6 m away reported "unknown" (not walking), standing
+    at B within episode_gap_s: two stays, B's windows fused at B, not at A's median (the
+    run of issue 16: a person reading at the shelf labelled at the chair)."""
+    sm = make(APARTMENT, window_s=0.5, associate_m=0.25, leave_distance_m=1.0)
+    jumpy_stay(sm, 0.0, 20, [(0.2, 0.5)], "sitting")
+    t = 10.0
+    for k in range(12):                           # 0.4 m/s towards B: located, unknown
+        stay(sm, t, t + 0.5, 0.2 + 0.2 * (k + 1), 0.5)
+        t += 0.5
+        sm.observe(t, "unknown")
+    assert sm.episode is None
+    labs = jumpy_stay(sm, t, 12, [(2.8, 0.5)], "standing")
+    assert len(sm.labels) == 2
+    a = sm.labels[sm.cell(0.2, 0.5)]
+    assert a.updates == 20 and labs[-1] is not a and labs[-1].updates == 12
+    assert (labs[-1].x, labs[-1].y) == (2.8, 0.5)
+
+
+def test_another_activity_elsewhere_is_a_new_stay():
+    """The walk unseen (no location, no activity of its own between): a window of an
+    activity the stay has not had, located beyond leave_distance_m, starts a new stay;
+    the same activity there is a location error, outvoted (test above)."""
+    sm = make(APARTMENT, window_s=0.5, associate_m=0.25, leave_distance_m=1.0)
+    jumpy_stay(sm, 0.0, 20, [(0.2, 0.5)], "sitting")
+    first = sm.episode
+    sm.observe(12.0, "unknown")                   # not located: the stay goes on
+    assert sm.episode is first
+    labs = jumpy_stay(sm, 14.0, 12, [(2.8, 0.5)], "standing")
+    assert sm.episode is not first and len(sm.labels) == 2
+    assert labs[-1].updates == 12 and (labs[-1].x, labs[-1].y) == (2.8, 0.5)
+    # standing 0.5 m from the stay (not away): the same stay
+    near = make(APARTMENT, window_s=0.5, associate_m=0.25, leave_distance_m=1.0)
+    jumpy_stay(near, 0.0, 20, [(0.2, 0.5)], "sitting")
+    first = near.episode
+    jumpy_stay(near, 14.0, 4, [(0.7, 0.5)], "standing")
+    assert near.episode is first and len(near.labels) == 1
+
+
 def test_skipped_activities_update_nothing():
     sm = make()
     stay(sm, 0.0, 3.0, 0.5, 0.5)

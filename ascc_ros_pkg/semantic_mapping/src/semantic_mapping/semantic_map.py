@@ -38,7 +38,14 @@ located windows of a lying person jumped by 0.3-0.9 m (range and bearing of a sh
 body 1.7 m long) and split one stay over four grids, none with the minimum evidence; a
 detection elsewhere made labels of its own. An episode ends at an activity outside the
 models (walking, a transition) or after ``episode_gap_s`` without a fused window;
-"unknown" windows and skipped windows (no location, moved) do not end it.
+skipped windows (no location, moved) do not end it. The recognizer does not always see
+the walk: in the apartment runs the walk from a chair to the shelf (2.6 m, 7 s) came out
+"unknown" in every window, and the shelf's "standing" windows, located at the shelf
+within 0.1 m, were fused at the chair's median (the episode's). So the location ends a
+stay too, where it says the person is elsewhere (farther than ``leave_distance_m`` from
+the episode's median): an "unknown" window located there, or a window of an activity the
+episode has not had located there. A window of the episode's own activity located far
+off stays a location error, outvoted by the median.
 
 Location type on the newest map. The robot's map grows while the person is at the
 furniture, and the person hides what is behind them (the bench's face is mapped only
@@ -109,7 +116,8 @@ class SemanticMapperParams:
                               "this (0.5: more likely than all the others together)",
                               ge=0.0, le=1.0)
     leave_distance_m: float = param(1.0, "[m] the person this far from a label has left it "
-                                    "(a later visit is a return)", gt=0.0)
+                                    "(a later visit is a return), and this far from a "
+                                    "stay's median has ended the stay", gt=0.0)
     episode_gap_s: float = param(10.0, "[s] a stationary episode ends after this long "
                                  "without a fused window", gt=0.0)
     target_kind: str = param("shirt", "the detection kind that is the person")
@@ -247,6 +255,7 @@ class SemanticMap:
     def observe(self, t: float, activity: str) -> Observed:
         """Fuse the activity recognized over the window ending at ``t`` [s]."""
         if activity == UNKNOWN:
+            self._end_stay_if_away(t)
             return Observed(skipped="unknown activity")
         o = self._index.get(activity)
         if o is None:
@@ -264,6 +273,8 @@ class SemanticMap:
         ep = self.episode
         if ep is not None and t - ep.last_t > self.p.episode_gap_s:
             ep = None
+        if ep is not None and ep.counts[o] == 0 and self._away(ep, x, y):
+            ep = None  # another activity elsewhere: a new stay (the walk was not seen)
         if ep is None:
             ep = self.episode = Episode(np.zeros(len(self._index), int), [], [], t)
         old = ep.grid
@@ -278,6 +289,26 @@ class SemanticMap:
         lab.information_bits = (before if before is not None else math.log2(
             len(self.models.furniture))) - lab.entropy_bits
         return Observed(label=lab)
+
+    def _away(self, ep: Episode, x: float, y: float) -> bool:
+        """The location (x, y) is farther than ``leave_distance_m`` from the stay's
+        median: the person is elsewhere."""
+        mx, my = ep.median
+        return math.hypot(x - mx, y - my) > self.p.leave_distance_m
+
+    def _end_stay_if_away(self, t: float) -> None:
+        """An "unknown" window (the recognizer cannot say what the person does: a walk it
+        did not recognize, too) ends the stay when the person's location over it lies
+        farther than ``leave_distance_m`` from the stay's median."""
+        ep = self.episode
+        if ep is None:
+            return
+        try:
+            x, y, _ = self.location(t)
+        except LocationError:
+            return
+        if self._away(ep, x, y):
+            self.episode = None
 
     def _detach(self, ep: Episode) -> Optional[float]:
         """Take the episode's observations out of its label (kept, maybe empty, until
