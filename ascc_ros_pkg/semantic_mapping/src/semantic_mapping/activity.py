@@ -27,6 +27,16 @@ belief (its likelihood is flat). A shrunk covariance (Ledoit-Wolf) was tried fir
 shrinkage towards the mean variance let a class with one large variance feature (eating's
 bends) swallow postures far from it on the others (bending, 0 % unknown).
 
+Gait amplitude (``range_features``): the distance above does not tell carrying from
+walking (the emulator's carrying is a walk with 0.6 of the thigh's swing and bounce;
+persons' gaits differ along the same direction of walking's covariance, and the ridge
+widens it further). With ``range_features`` a window is known only if it also lies, on
+those features, within [``range_quantile``, 1 - ``range_quantile``] of the training
+windows of the class the network takes it for (a window taken for walking must swing its
+thigh as much as some training person walked). `scripts/cv_gait.py` chose the feature
+(the log variance of the thigh's forward axis: its swing) and the quantile (0.005) over
+the training persons; `train_activity` trains with them by default.
+
 Sensors asleep (the power scheme of 5.4.1) send nothing: the node holds a sleeping
 sensor's last sample, and the training recordings are made the same way (`training`).
 
@@ -79,6 +89,10 @@ class RecognizerConfig:
     hidden: Tuple[int, ...] = (64,)  # network's hidden layer sizes
     unknown_quantile: float = 0.995  # of a class's own training distances
     unknown_ridge: float = 0.01    # added to each class covariance (standardised units)
+    # features (`feature_names`) a window must also lie within a class's own training
+    # range on to be near it: [range_quantile, 1 - range_quantile] of its windows
+    range_features: Tuple[str, ...] = ()
+    range_quantile: float = 0.001
     seed: int = 0
     classes: Tuple[str, ...] = field(default=ACTIVITIES)
 
@@ -86,6 +100,8 @@ class RecognizerConfig:
         """A model saved before ``variance`` existed used linear variances."""
         state.setdefault("variance", "linear")
         state.setdefault("variance_floor", 0.01)
+        state.setdefault("range_features", ())
+        state.setdefault("range_quantile", 0.001)
         self.__dict__.update(state)
 
     def samples(self) -> Tuple[int, int]:
@@ -99,6 +115,13 @@ def _window_moments(a: np.ndarray, ends: np.ndarray, w: int):
     c2 = np.vstack([np.zeros((1, a.shape[1])), np.cumsum(a * a, axis=0)])
     mean = (c1[ends] - c1[ends - w]) / w
     return mean, np.maximum((c2[ends] - c2[ends - w]) / w - mean ** 2, 0.0)
+
+
+def feature_names(config: RecognizerConfig) -> List[str]:
+    """The names of `window_features`' columns: <sensor>_<mean|var|dvar>_<axis>."""
+    kinds = ("mean", "var", "dvar") if config.features == "extended" else ("mean", "var")
+    return ["%s_%s_%s" % (s, k, ax) for s in ("waist", "thigh") for k in kinds
+            for ax in "xyz"]
 
 
 def window_features(waist: np.ndarray, thigh: np.ndarray,
@@ -210,6 +233,21 @@ class Recognizer:
             self.means.append(mean)
             self.precisions.append(precision)
             self.thresholds.append(float(np.quantile(d, c.unknown_quantile)))
+        return self.fit_ranges(x, y)
+
+    def fit_ranges(self, x: np.ndarray, y: np.ndarray) -> Recognizer:
+        """Each class's [q, 1 - q] range (q = ``range_quantile``) of the
+        ``range_features`` over its windows ``x[y == class]`` (features as
+        `window_features` gives them)."""
+        c = self.config
+        names = feature_names(c)
+        unknown = sorted(set(c.range_features) - set(names))
+        if unknown:
+            raise ValueError("range_features %s: not among %s" % (unknown, names))
+        self.range_index = [names.index(n) for n in c.range_features]
+        q = c.range_quantile
+        self.ranges = [np.quantile(x[y == a][:, self.range_index], [q, 1.0 - q], axis=0)
+                       for a in range(len(c.classes))] if self.range_index else []
         return self
 
     @staticmethod
@@ -218,12 +256,24 @@ class Recognizer:
         return np.sqrt(np.einsum("ni,ij,nj->n", d, precision, d))
 
     # -- recognition ------------------------------------------------------------------
-    def known(self, features: np.ndarray) -> np.ndarray:
-        """(n,) bool: the window is near at least one class."""
+    def near(self, features: np.ndarray) -> np.ndarray:
+        """(n, classes) bool: the window's Mahalanobis distance to the class is within
+        the class's threshold."""
         z = self.scaler.transform(features)
-        near = [self._mahalanobis(z, m, p) <= t
-                for m, p, t in zip(self.means, self.precisions, self.thresholds)]
-        return np.any(near, axis=0)
+        return np.stack([self._mahalanobis(z, m, p) <= t for m, p, t in
+                         zip(self.means, self.precisions, self.thresholds)], axis=1)
+
+    def known(self, features: np.ndarray) -> np.ndarray:
+        """(n,) bool: the window is near at least one class and, on ``range_features``,
+        within the training range of the class the network takes it for."""
+        known = np.any(self.near(features), axis=1)
+        index = getattr(self, "range_index", [])  # (a model saved before: none)
+        if index:
+            taken = self.nn.predict_proba(self.scaler.transform(features)).argmax(axis=1)
+            lo, hi = (np.stack([r[i] for r in self.ranges])[taken] for i in (0, 1))
+            f = np.asarray(features)[:, index]
+            known &= np.all((f >= lo) & (f <= hi), axis=1)
+        return known
 
     def evidence(self, features: np.ndarray, kind: Optional[str] = None):
         """Per window: (P_nn(A | x) for ``nn``, else log P(obs | A) for the HMM forward

@@ -178,6 +178,14 @@ def main(argv: Optional[List[str]] = None) -> int:
                     help="variance features as log10(variance + 0.01 m^2/s^4) or linear")
     ap.add_argument("--windows", default="3,4.5,6",
                     help="window lengths [s] to choose from (3,4.5,6)")
+    ap.add_argument("--range-features", default="thigh_var_z",
+                    help="comma-separated window features a window must lie within the "
+                         "training range of (for the class the network takes it for) to "
+                         "be known; 'none' for none (default thigh_var_z, the thigh's "
+                         "swing: scripts/cv_gait.py's choice)")
+    ap.add_argument("--range-quantile", type=float, default=0.005,
+                    help="the range is [q, 1 - q] of the class's training windows "
+                         "(default 0.005: cv_gait.py's choice)")
     ap.add_argument("--out", help="save the trained recognizer here (joblib)")
     ap.add_argument("--table", help="write P(O|A) (Table 5.1 layout) here (YAML)")
     args = ap.parse_args(argv)
@@ -194,15 +202,18 @@ def main(argv: Optional[List[str]] = None) -> int:
                                        variance=args.variance)
     print("\n".join(lines))
     kind = args.kind or kind
+    ranges = tuple(n for n in args.range_features.split(",") if n and n != "none")
     config = RecognizerConfig(window_s=window, kind=kind, features=feat,
-                              variance=args.variance)
+                              variance=args.variance, range_features=ranges,
+                              range_quantile=args.range_quantile)
     rec = train(train_seeds, config, power)
     held = [record(seed, config, unknown=True, power=power) for seed in test]
     print("activity recognition (thesis 5.4.2): %s features (%s variances), window %g s "
-          "every %g s, %s, power scheme %s; trained on persons %s, tested on held-out "
-          "persons %s (windows wholly inside one activity)"
+          "every %g s, %s, power scheme %s, range features %s (q %g); trained on persons "
+          "%s, tested on held-out persons %s (windows wholly inside one activity)"
           % (feat, args.variance, config.window_s, config.hop_s, kind, args.power,
-             args.train_seeds, args.test_seeds))
+             ",".join(ranges) or "none", config.range_quantile, args.train_seeds,
+             args.test_seeds))
     results = {}
     for k in KINDS:
         results[k] = evaluate(rec, held, k)
