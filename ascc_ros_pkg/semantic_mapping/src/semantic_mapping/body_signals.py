@@ -7,7 +7,8 @@ front. The segment's orientation in the world (ENU) is a forward lean ``beta`` [
 the person's left axis (0 upright, +pi/2 the segment pointing forward, -pi/2 backward),
 a roll ``gamma`` about the person's forward axis and the heading ``psi``; a mounting tilt
 per person and sensor is added. The accelerometer measures the specific force
-f = R^T (a_world + [0, 0, g]), the gyro the body rate (from R(t - h)^T R(t)), the
+f = R^T (a_world + [0, 0, g]) (a_world: the motion's acceleration, fore-aft and
+sideways turned with the person's heading), the gyro the body rate (from R(t - h)^T R(t)), the
 orientation is R as a quaternion. Postures (waist, thigh lean in degrees before the
 person's offsets): standing (0, 0), sitting (-8, -90: the thigh horizontal, hip behind
 the knee), typing (+15, -90, a fine tremor), eating (+20, -90, hand-to-mouth bends every
@@ -238,6 +239,11 @@ def sensor_signals(activity: str, position: str, person: Person, t: Sequence[flo
     d = np.einsum("nji,njk->nik", r_prev, r)  # R(t-h)^T R(t)
     gyro = np.stack([d[:, 2, 1] - d[:, 1, 2], d[:, 0, 2] - d[:, 2, 0],
                      d[:, 1, 0] - d[:, 0, 1]], axis=1) / (2.0 * h)
+    # the motion's acceleration is the body's (x forward, y left): the gait's fore-aft
+    # bounce points where the person walks, not along the world's x
+    ch, sh = math.cos(heading_rad), math.sin(heading_rad)
+    acc = np.stack([ch * acc[:, 0] - sh * acc[:, 1], sh * acc[:, 0] + ch * acc[:, 1],
+                    acc[:, 2]], axis=1)
     f_world = acc + np.array([0.0, 0.0, G])
     accel = np.einsum("nji,nj->ni", r, f_world)  # R^T f
     accel += person.noise_mps2 * _unit_noise(person.seed, 10 + pos, t, 3)
