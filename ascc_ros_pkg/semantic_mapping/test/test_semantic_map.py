@@ -239,6 +239,9 @@ def test_another_activity_elsewhere_is_a_new_stay():
     labs = jumpy_stay(sm, 14.0, 12, [(2.8, 0.5)], "standing")
     assert sm.episode is not first and len(sm.labels) == 2
     assert labs[-1].updates == 12 and (labs[-1].x, labs[-1].y) == (2.8, 0.5)
+    stay(sm, 20.0, 20.5, 2.9, 0.5)
+    out = sm.observe(20.5, "standing")            # the window's location and its label's
+    assert (out.x, out.y) == (2.9, 0.5) and out.label is labs[-1] and out.label.x == 2.8
     # standing 0.5 m from the stay (not away): the same stay
     near = make(APARTMENT, window_s=0.5, associate_m=0.25, leave_distance_m=1.0)
     jumpy_stay(near, 0.0, 20, [(0.2, 0.5)], "sitting")

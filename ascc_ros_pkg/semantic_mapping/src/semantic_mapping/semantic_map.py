@@ -182,6 +182,8 @@ class Observed:
 
     label: Optional[Label] = None
     skipped: str = ""
+    x: float = math.nan      # [m] the person's location over the window, when fused
+    y: float = math.nan
 
 
 class SemanticMap:
@@ -288,7 +290,7 @@ class SemanticMap:
             del self.labels[old]  # the episode was all of it: no stray label left behind
         lab.information_bits = (before if before is not None else math.log2(
             len(self.models.furniture))) - lab.entropy_bits
-        return Observed(label=lab)
+        return Observed(label=lab, x=x, y=y)
 
     def _away(self, ep: Episode, x: float, y: float) -> bool:
         """The location (x, y) is farther than ``leave_distance_m`` from the stay's

@@ -121,8 +121,9 @@ class SemanticMapperNode:
             rospy.logdebug("semantic mapper: %s not fused: %s", msg.activity, out.skipped)
             return
         lab = out.label
-        rospy.loginfo("semantic mapper: %s at (%.2f, %.2f) m, CL %d -> %s (P %.2f, H %.2f "
-                      "bits)", msg.activity, lab.x, lab.y, lab.location_type, lab.text,
+        rospy.loginfo("semantic mapper: %s located at (%.2f, %.2f) m, fused at the label at "
+                      "(%.2f, %.2f) m, CL %d -> %s (P %.2f, H %.2f bits)", msg.activity,
+                      out.x, out.y, lab.x, lab.y, lab.location_type, lab.text,
                       lab.belief.max(), lab.entropy_bits)
         self.publish(msg.header.stamp)
 
