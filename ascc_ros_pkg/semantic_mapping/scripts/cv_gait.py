@@ -14,19 +14,40 @@ reports the most carrying windows unknown while no known activity loses more tha
 more of its windows to "unknown" than without a range feature.
 Only the training persons; the held-out persons 100-104 are for `train_activity`.
 
-    python ascc_ros_pkg/semantic_mapping/scripts/cv_gait.py [--quantiles 0.001 ...]
+With ``--pairs``: pairs of the gait's features (`GAIT`) and a triple, each as a box
+(``range_features``: within each feature's range) and as an ellipse
+(``region_features``: the class's Mahalanobis distance on just those features), with
+the same rule.
+
+    python ascc_ros_pkg/semantic_mapping/scripts/cv_gait.py [--pairs] [--quantiles ...]
 """
 import argparse
+import itertools
 import sys
 
 import numpy as np
 
-from semantic_mapping.activity import RecognizerConfig, feature_names
+from semantic_mapping.activity import RecognizerConfig, feature_names, fit_regions, in_region
 from semantic_mapping.body_signals import UNKNOWN_ACTIVITIES
 from semantic_mapping.training import FIVE, record, train
 
 KNOWN = FIVE + ("standing", "walking")
 MAX_EXTRA_LOSS = 0.02
+# what carrying changes in the emulator (`body_signals._angles`): the thigh's swing (its
+# forward axis z, and x), the bounce (the waist's vertical x and fore-aft z) and the
+# waist leant back (gravity's share on the waist's forward axis: mean z)
+GAIT = ("thigh_var_z", "thigh_dvar_z", "thigh_var_x", "waist_var_x", "waist_var_z",
+        "waist_mean_z")
+TRIPLES = (("thigh_var_z", "waist_var_x", "waist_mean_z"),)
+
+
+def candidates(names, pairs):
+    """(shape, feature names): single features as ranges, or (``pairs``) every pair of
+    `GAIT` and the `TRIPLES` as a box (ranges of each) and as an ellipse (a region)."""
+    if not pairs:
+        return [("range", (n,)) for n in names]
+    sets = list(itertools.combinations(GAIT, 2)) + list(TRIPLES)
+    return [(shape, fs) for fs in sets for shape in ("range", "region")]
 
 
 def main(argv=None):
@@ -35,12 +56,14 @@ def main(argv=None):
                     default=[0.0005, 0.001, 0.0025, 0.005, 0.01])
     ap.add_argument("--seeds", type=int, nargs="+", default=list(range(12)))
     ap.add_argument("--folds", type=int, default=3)
+    ap.add_argument("--pairs", action="store_true",
+                    help="pairs (and a triple) of the gait's features, as boxes and as "
+                         "ellipses, instead of single features")
     args = ap.parse_args(argv)
     config = RecognizerConfig(window_s=3.0, features="extended")
     names = feature_names(config)
     k = len(config.classes)
-    true, near, taken, feats = [], [], [], []
-    lo, hi = {q: [] for q in args.quantiles}, {q: [] for q in args.quantiles}
+    folds = []  # (training x, y; test features, network's class, near, true) per fold
     for g in np.array_split(np.asarray(args.seeds), args.folds):
         fit_seeds = [s for s in args.seeds if s not in g]
         rec = train(fit_seeds, config)
@@ -50,48 +73,55 @@ def main(argv=None):
             x.append(f)
             y.append(np.array([config.classes.index(a) for a in lab]))
         x, y = np.vstack(x), np.concatenate(y)
+        true, near, taken, feats = [], [], [], []
         for s in g:
             f, lab, pure = record(int(s), config, unknown=True)
             true.append(np.asarray(lab, dtype=object)[pure])
             near.append(rec.near(f)[pure].any(axis=1))  # the distance test alone
             taken.append(rec.nn.predict_proba(rec.scaler.transform(f)).argmax(axis=1)[pure])
             feats.append(f[pure])
-            for q in args.quantiles:  # (classes, features) bounds of this fold
-                b = np.stack([np.quantile(x[y == a], [q, 1.0 - q], axis=0)
-                              for a in range(k)])
-                lo[q].append(np.repeat(b[None, :, 0], pure.sum(), axis=0))
-                hi[q].append(np.repeat(b[None, :, 1], pure.sum(), axis=0))
+        folds.append((x, y, np.vstack(feats), np.concatenate(taken), np.concatenate(near),
+                      np.concatenate(true)))
         print("fold %s done" % list(g), flush=True)
-    t, near, f = np.concatenate(true), np.concatenate(near), np.vstack(feats)
-    taken = np.concatenate(taken)
-    rows = np.arange(t.size)
+    t = np.concatenate([fd[5] for fd in folds])
+    near = np.concatenate([fd[4] for fd in folds])
     acts = KNOWN + UNKNOWN_ACTIVITIES
 
     def rates(known):
         return {a: float(np.mean(~known[t == a])) for a in acts}
 
+    def inside(shape, index, q):
+        out = []
+        for x, y, f, taken, _, _ in folds:
+            if shape == "range":
+                b = np.stack([np.quantile(x[y == a][:, index], [q, 1.0 - q], axis=0)
+                              for a in range(k)])  # (classes, 2, features)
+                lo, hi = b[taken, 0], b[taken, 1]
+                out.append(np.all((f[:, index] >= lo) & (f[:, index] <= hi), axis=1))
+            else:
+                out.append(in_region(f[:, index], fit_regions(x[:, index], y, k, q), taken))
+        return np.concatenate(out)
+
     base = rates(near)
     print("no range feature: " + " ".join("%s %.3f" % (a, base[a]) for a in acts))
     best = None
     for q in args.quantiles:
-        lq, hq = np.vstack(lo[q]), np.vstack(hi[q])  # (n, classes, features)
-        # within the range of the class the network takes the window for
-        inside = (f >= lq[rows, taken]) & (f <= hq[rows, taken])  # (n, features)
-        for j, name in enumerate(names):
-            r = rates(near & inside[:, j])
+        for shape, fs in candidates(names, args.pairs):
+            r = rates(near & inside(shape, [names.index(n) for n in fs], q))
             worst = max(r[a] - base[a] for a in KNOWN)
             ok = worst <= MAX_EXTRA_LOSS
-            print("q %.4f %-13s %s carrying %.3f  worst extra loss of a known activity "
-                  "%.3f%s" % (q, name, " ".join("%s %.3f" % (a, r[a]) for a in KNOWN),
+            print("q %.4f %-6s %-40s %s carrying %.3f  worst extra loss of a known activity "
+                  "%.3f%s" % (q, shape, ",".join(fs),
+                              " ".join("%s %.3f" % (a, r[a]) for a in KNOWN),
                               r["carrying"], worst, "" if ok else "  (over the rule)"),
                   flush=True)
             if ok and (best is None or r["carrying"] > best[0]):
-                best = (r["carrying"], name, q)
+                best = (r["carrying"], shape, fs, q)
     if best is None:
         print("no candidate within the rule")
     else:
-        print("chosen: range_features (%s,), range_quantile %g: carrying unknown %.3f"
-              % (best[1], best[2], best[0]))
+        print("chosen: %s_features (%s), %s_quantile %g: carrying unknown %.3f"
+              % (best[1], ",".join(best[2]), best[1], best[3], best[0]))
     return 0
 
 

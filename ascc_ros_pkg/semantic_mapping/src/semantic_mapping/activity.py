@@ -93,6 +93,11 @@ class RecognizerConfig:
     # range on to be near it: [range_quantile, 1 - range_quantile] of its windows
     range_features: Tuple[str, ...] = ()
     range_quantile: float = 0.001
+    # features a window must also lie within a class's own training region on: the
+    # Mahalanobis distance (the class's covariance of just these features) within the
+    # 1 - region_quantile quantile of its windows' distances (an ellipse, not a box)
+    region_features: Tuple[str, ...] = ()
+    region_quantile: float = 0.005
     seed: int = 0
     classes: Tuple[str, ...] = field(default=ACTIVITIES)
 
@@ -102,6 +107,8 @@ class RecognizerConfig:
         state.setdefault("variance_floor", 0.01)
         state.setdefault("range_features", ())
         state.setdefault("range_quantile", 0.001)
+        state.setdefault("region_features", ())
+        state.setdefault("region_quantile", 0.005)
         self.__dict__.update(state)
 
     def samples(self) -> Tuple[int, int]:
@@ -160,6 +167,39 @@ def window_labels(labels: Sequence[str], ends: np.ndarray,
     change = np.concatenate([[0], np.cumsum(lab[1:] != lab[:-1])])
     pure = change[ends - 1] == change[ends - w]
     return centre, pure
+
+
+def fit_regions(x: np.ndarray, y: np.ndarray, n_classes: int, quantile: float):
+    """Per class a of ``n_classes``: (mean, precision, threshold) of the windows
+    ``x[y == a]`` (columns: the region's features): the distance threshold is the
+    1 - ``quantile`` quantile of the class's own windows' Mahalanobis distances. A tiny
+    ridge (1e-6 of the mean variance) keeps a flat class's covariance invertible."""
+    out = []
+    for a in range(n_classes):
+        xa = x[y == a]
+        mean = xa.mean(axis=0)
+        cov = np.atleast_2d(np.cov(xa, rowvar=False))
+        cov = cov + 1e-6 * max(float(np.trace(cov)) / cov.shape[0], 1e-12) * np.eye(
+            cov.shape[0])
+        precision = np.linalg.inv(cov)
+        d = mahalanobis(xa, mean, precision)
+        out.append((mean, precision, float(np.quantile(d, 1.0 - quantile))))
+    return out
+
+
+def mahalanobis(x: np.ndarray, mean: np.ndarray, precision: np.ndarray) -> np.ndarray:
+    """(n,) distances of the rows of ``x`` to ``mean`` under ``precision``."""
+    d = x - mean
+    return np.sqrt(np.einsum("ni,ij,nj->n", d, precision, d))
+
+
+def in_region(x: np.ndarray, regions, taken: np.ndarray) -> np.ndarray:
+    """(n,) bool: row i of ``x`` within the region (`fit_regions`) of class ``taken[i]``."""
+    means = np.stack([r[0] for r in regions])[taken]
+    precisions = np.stack([r[1] for r in regions])[taken]
+    thresholds = np.array([r[2] for r in regions])[taken]
+    d = x - means
+    return np.sqrt(np.einsum("ni,nij,nj->n", d, precisions, d)) <= thresholds
 
 
 def forward_step(belief: Optional[np.ndarray], log_lik: np.ndarray, start: np.ndarray,
@@ -248,12 +288,16 @@ class Recognizer:
         q = c.range_quantile
         self.ranges = [np.quantile(x[y == a][:, self.range_index], [q, 1.0 - q], axis=0)
                        for a in range(len(c.classes))] if self.range_index else []
+        region = tuple(getattr(c, "region_features", ()))
+        unknown = sorted(set(region) - set(names))
+        if unknown:
+            raise ValueError("region_features %s: not among %s" % (unknown, names))
+        self.region_index = [names.index(n) for n in region]
+        self.regions = fit_regions(x[:, self.region_index], y, len(c.classes),
+                                   c.region_quantile) if self.region_index else []
         return self
 
-    @staticmethod
-    def _mahalanobis(z, mean, precision):
-        d = z - mean
-        return np.sqrt(np.einsum("ni,ij,nj->n", d, precision, d))
+    _mahalanobis = staticmethod(mahalanobis)
 
     # -- recognition ------------------------------------------------------------------
     def near(self, features: np.ndarray) -> np.ndarray:
@@ -264,15 +308,20 @@ class Recognizer:
                          zip(self.means, self.precisions, self.thresholds)], axis=1)
 
     def known(self, features: np.ndarray) -> np.ndarray:
-        """(n,) bool: the window is near at least one class and, on ``range_features``,
-        within the training range of the class the network takes it for."""
+        """(n,) bool: the window is near at least one class and, on ``range_features``
+        and ``region_features``, within the training range and region of the class the
+        network takes it for."""
         known = np.any(self.near(features), axis=1)
         index = getattr(self, "range_index", [])  # (a model saved before: none)
-        if index:
+        region = getattr(self, "region_index", [])
+        if index or region:
             taken = self.nn.predict_proba(self.scaler.transform(features)).argmax(axis=1)
+            f = np.asarray(features)
+        if index:
             lo, hi = (np.stack([r[i] for r in self.ranges])[taken] for i in (0, 1))
-            f = np.asarray(features)[:, index]
-            known &= np.all((f >= lo) & (f <= hi), axis=1)
+            known &= np.all((f[:, index] >= lo) & (f[:, index] <= hi), axis=1)
+        if region:
+            known &= in_region(f[:, region], self.regions, taken)
         return known
 
     def evidence(self, features: np.ndarray, kind: Optional[str] = None):
