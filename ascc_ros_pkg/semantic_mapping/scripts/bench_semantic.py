@@ -13,8 +13,8 @@ names its kind. The goal: every item correct in at least 4 of 5 seeds. Also prin
 of the simulator and the person's way of moving (the wearable emulator).
 
 The recognizer is trained once (persons 0-11, nn_hmm, extended features, log variances,
-3 s windows, the thigh's swing as a range feature: train_activity's choice) into
-OUT/activity.joblib. About 4-6 minutes of wall time per run.
+3 s windows, the thigh's swing and the waist's lean as a region: train_activity's
+choice) into OUT/activity.joblib. About 4-6 minutes of wall time per run.
 
     python ascc_ros_pkg/semantic_mapping/scripts/bench_semantic.py [--seeds 0 1 2 3 4]
         [--out output/bench_semantic] [--report-only [--rule MIN_OBSERVATIONS MIN_BELIEF]]
@@ -48,8 +48,9 @@ def train_model(path):
     from semantic_mapping.activity import RecognizerConfig
     from semantic_mapping.training import train
     rec = train(list(range(12)), RecognizerConfig(window_s=3.0, features="extended",
-                                                  range_features=("thigh_var_z",),
-                                                  range_quantile=0.005))
+                                                  region_features=("thigh_dvar_z",
+                                                                   "waist_mean_z"),
+                                                  region_quantile=0.0025))
     joblib.dump(rec, path + ".part")
     os.replace(path + ".part", path)
 

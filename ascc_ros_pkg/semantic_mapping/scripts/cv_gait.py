@@ -50,6 +50,24 @@ def candidates(names, pairs):
     return [(shape, fs) for fs in sets for shape in ("range", "region")]
 
 
+def inside(folds, k, shape, index, q, fit):
+    """(test windows,) bool: within the range or region of the class the network takes
+    each for, fitted on each fold's training windows."""
+    out = []
+    for x, y, p, f, taken, _, _ in folds:
+        if fit == "pure":  # a class's pure windows where it has some
+            keep = p | ~np.isin(y, np.unique(y[p]))
+            x, y = x[keep], y[keep]
+        if shape == "range":
+            b = np.stack([np.quantile(x[y == a][:, index], [q, 1.0 - q], axis=0)
+                          for a in range(k)])  # (classes, 2, features)
+            lo, hi = b[taken, 0], b[taken, 1]
+            out.append(np.all((f[:, index] >= lo) & (f[:, index] <= hi), axis=1))
+        else:
+            out.append(in_region(f[:, index], fit_regions(x[:, index], y, k, q), taken))
+    return np.concatenate(out)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quantiles", type=float, nargs="+",
@@ -59,6 +77,10 @@ def main(argv=None):
     ap.add_argument("--pairs", action="store_true",
                     help="pairs (and a triple) of the gait's features, as boxes and as "
                          "ellipses, instead of single features")
+    ap.add_argument("--fit", choices=("all", "pure", "both"), default="all",
+                    help="the ranges and regions from all of a class's windows, from its "
+                         "windows wholly inside one activity (a class without such "
+                         "windows, the transitions: all), or both variants")
     args = ap.parse_args(argv)
     config = RecognizerConfig(window_s=3.0, features="extended")
     names = feature_names(config)
@@ -67,12 +89,13 @@ def main(argv=None):
     for g in np.array_split(np.asarray(args.seeds), args.folds):
         fit_seeds = [s for s in args.seeds if s not in g]
         rec = train(fit_seeds, config)
-        x, y = [], []
+        x, y, p = [], [], []
         for s in fit_seeds:
-            f, lab, _ = record(s, config)
+            f, lab, pure = record(s, config)
             x.append(f)
             y.append(np.array([config.classes.index(a) for a in lab]))
-        x, y = np.vstack(x), np.concatenate(y)
+            p.append(pure)
+        x, y, p = np.vstack(x), np.concatenate(y), np.concatenate(p)
         true, near, taken, feats = [], [], [], []
         for s in g:
             f, lab, pure = record(int(s), config, unknown=True)
@@ -80,48 +103,38 @@ def main(argv=None):
             near.append(rec.near(f)[pure].any(axis=1))  # the distance test alone
             taken.append(rec.nn.predict_proba(rec.scaler.transform(f)).argmax(axis=1)[pure])
             feats.append(f[pure])
-        folds.append((x, y, np.vstack(feats), np.concatenate(taken), np.concatenate(near),
+        folds.append((x, y, p, np.vstack(feats), np.concatenate(taken), np.concatenate(near),
                       np.concatenate(true)))
         print("fold %s done" % list(g), flush=True)
-    t = np.concatenate([fd[5] for fd in folds])
-    near = np.concatenate([fd[4] for fd in folds])
+    t = np.concatenate([fd[6] for fd in folds])
+    near = np.concatenate([fd[5] for fd in folds])
     acts = KNOWN + UNKNOWN_ACTIVITIES
 
     def rates(known):
         return {a: float(np.mean(~known[t == a])) for a in acts}
 
-    def inside(shape, index, q):
-        out = []
-        for x, y, f, taken, _, _ in folds:
-            if shape == "range":
-                b = np.stack([np.quantile(x[y == a][:, index], [q, 1.0 - q], axis=0)
-                              for a in range(k)])  # (classes, 2, features)
-                lo, hi = b[taken, 0], b[taken, 1]
-                out.append(np.all((f[:, index] >= lo) & (f[:, index] <= hi), axis=1))
-            else:
-                out.append(in_region(f[:, index], fit_regions(x[:, index], y, k, q), taken))
-        return np.concatenate(out)
-
     base = rates(near)
     print("no range feature: " + " ".join("%s %.3f" % (a, base[a]) for a in acts))
     best = None
-    for q in args.quantiles:
+    fits = ("all", "pure") if args.fit == "both" else (args.fit,)
+    for q, fit in itertools.product(args.quantiles, fits):
         for shape, fs in candidates(names, args.pairs):
-            r = rates(near & inside(shape, [names.index(n) for n in fs], q))
+            r = rates(near & inside(folds, k, shape, [names.index(n) for n in fs], q, fit))
             worst = max(r[a] - base[a] for a in KNOWN)
             ok = worst <= MAX_EXTRA_LOSS
-            print("q %.4f %-6s %-40s %s carrying %.3f  worst extra loss of a known activity "
-                  "%.3f%s" % (q, shape, ",".join(fs),
+            print("q %.4f %-4s %-6s %-40s %s carrying %.3f  worst extra loss of a known activity "
+                  "%.3f%s" % (q, fit, shape, ",".join(fs),
                               " ".join("%s %.3f" % (a, r[a]) for a in KNOWN),
                               r["carrying"], worst, "" if ok else "  (over the rule)"),
                   flush=True)
             if ok and (best is None or r["carrying"] > best[0]):
-                best = (r["carrying"], shape, fs, q)
+                best = (r["carrying"], shape, fs, q, fit)
     if best is None:
         print("no candidate within the rule")
     else:
-        print("chosen: %s_features (%s), %s_quantile %g: carrying unknown %.3f"
-              % (best[1], ",".join(best[2]), best[1], best[3], best[0]))
+        print("chosen: %s_features (%s), %s_quantile %g, fit on %s windows: carrying "
+              "unknown %.3f" % (best[1], ",".join(best[2]), best[1], best[3], best[4],
+                                best[0]))
     return 0
 
 

@@ -147,6 +147,66 @@ def test_the_gait_range_reports_a_smaller_gait_unknown(trained):
         bad.fit_ranges(np.vstack(x), np.concatenate(y))
 
 
+def test_the_gait_region_reports_carrying_unknown_and_the_node_path_gets_it(trained):
+    """The region (the thigh's swing and the waist's lean as an ellipse per class,
+    cv_gait.py --pairs' choice) on the fixture's recognizer: carrying (0.6 of the gait,
+    the trunk leant back) is unknown in more windows than by the distance alone, walking,
+    standing and opening a door stay known, and the online recognizer (the node's path)
+    gives the same labels as the batch."""
+    import copy
+    import dataclasses
+    rec, cfg = trained
+    region = copy.copy(rec)
+    region.config = dataclasses.replace(cfg, region_features=("thigh_dvar_z",
+                                                              "waist_mean_z"),
+                                        region_quantile=0.0025)
+    x, y = [], []
+    for seed in (0, 1, 2, 3):
+        f, lab, _ = training.record(seed, cfg)
+        x.append(f)
+        y.append([cfg.classes.index(a) for a in lab])
+    region.fit_ranges(np.vstack(x), np.concatenate(y))
+    assert len(region.regions) == len(cfg.classes) and not region.range_index
+    lost = {}
+    for seed in (100, 101, 102):
+        p = Person.from_seed(seed)
+        for activity in ("carrying", "walking", "standing", "opening_door"):
+            data = render([(activity, 30.0)], p)
+            feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+            before, after = 1.0 - rec.known(feats).mean(), 1.0 - region.known(feats).mean()
+            lost.setdefault(activity, []).append(after - before)
+    assert np.mean(lost["carrying"]) > 0.2
+    for activity in ("walking", "standing", "opening_door"):
+        assert max(lost[activity]) < 0.05, activity
+    data = render([("walking", 8.0), ("carrying", 12.0)], Person.from_seed(101))
+    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+    labels, _ = region.recognize(feats)
+    online = OnlineRecognizer(region)
+    got = [r[0] for r in (online.push(w, t) for w, t in zip(data["waist_accel"],
+                                                          data["thigh_accel"])) if r]
+    assert got == labels and UNKNOWN in labels and "walking" in labels
+    with pytest.raises(ValueError, match="region_features"):
+        bad = copy.copy(rec)
+        bad.config = dataclasses.replace(cfg, region_features=("thigh_swing",))
+        bad.fit_ranges(np.vstack(x), np.concatenate(y))
+
+
+def test_a_model_saved_before_the_region_loads_without_one(trained):
+    """A recognizer pickled before region_features existed (no config fields, no
+    region_index) loads and recognizes as before."""
+    import pickle
+    rec, cfg = trained
+    old = pickle.loads(pickle.dumps(rec))
+    for key in ("region_features", "region_quantile"):
+        del old.config.__dict__[key]
+    del old.region_index, old.regions
+    loaded = pickle.loads(pickle.dumps(old))
+    assert loaded.config.region_features == () and loaded.config.region_quantile == 0.005
+    data = render([("walking", 10.0), ("bending", 10.0)], Person.from_seed(102))
+    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+    assert np.array_equal(loaded.known(feats), rec.known(feats))
+
+
 def test_online_recognition_equals_the_batch(trained):
     rec, cfg = trained
     data = render([("walking", 8.0), ("sitting", 12.0), ("bending", 6.0)],

@@ -178,14 +178,23 @@ def main(argv: Optional[List[str]] = None) -> int:
                     help="variance features as log10(variance + 0.01 m^2/s^4) or linear")
     ap.add_argument("--windows", default="3,4.5,6",
                     help="window lengths [s] to choose from (3,4.5,6)")
-    ap.add_argument("--range-features", default="thigh_var_z",
+    ap.add_argument("--range-features", default="none",
                     help="comma-separated window features a window must lie within the "
                          "training range of (for the class the network takes it for) to "
-                         "be known; 'none' for none (default thigh_var_z, the thigh's "
-                         "swing: scripts/cv_gait.py's choice)")
+                         "be known; 'none' for none (the default; thigh_var_z was "
+                         "scripts/cv_gait.py's choice among single features)")
     ap.add_argument("--range-quantile", type=float, default=0.005,
                     help="the range is [q, 1 - q] of the class's training windows "
-                         "(default 0.005: cv_gait.py's choice)")
+                         "(default 0.005)")
+    ap.add_argument("--region-features", default="thigh_dvar_z,waist_mean_z",
+                    help="comma-separated window features a window must lie within the "
+                         "training region (Mahalanobis ellipse) of (for the class the "
+                         "network takes it for) to be known; 'none' for none (default "
+                         "thigh_dvar_z,waist_mean_z, the thigh's swing and the waist's "
+                         "lean: scripts/cv_gait.py --pairs' choice)")
+    ap.add_argument("--region-quantile", type=float, default=0.0025,
+                    help="the region holds 1 - q of the class's training windows "
+                         "(default 0.0025: cv_gait.py --pairs' choice)")
     ap.add_argument("--out", help="save the trained recognizer here (joblib)")
     ap.add_argument("--table", help="write P(O|A) (Table 5.1 layout) here (YAML)")
     args = ap.parse_args(argv)
@@ -203,16 +212,20 @@ def main(argv: Optional[List[str]] = None) -> int:
     print("\n".join(lines))
     kind = args.kind or kind
     ranges = tuple(n for n in args.range_features.split(",") if n and n != "none")
+    regions = tuple(n for n in args.region_features.split(",") if n and n != "none")
     config = RecognizerConfig(window_s=window, kind=kind, features=feat,
                               variance=args.variance, range_features=ranges,
-                              range_quantile=args.range_quantile)
+                              range_quantile=args.range_quantile, region_features=regions,
+                              region_quantile=args.region_quantile)
     rec = train(train_seeds, config, power)
     held = [record(seed, config, unknown=True, power=power) for seed in test]
     print("activity recognition (thesis 5.4.2): %s features (%s variances), window %g s "
-          "every %g s, %s, power scheme %s, range features %s (q %g); trained on persons "
-          "%s, tested on held-out persons %s (windows wholly inside one activity)"
+          "every %g s, %s, power scheme %s, range features %s (q %g), region features %s "
+          "(q %g); trained on persons %s, tested on held-out persons %s (windows wholly "
+          "inside one activity)"
           % (feat, args.variance, config.window_s, config.hop_s, kind, args.power,
-             ",".join(ranges) or "none", config.range_quantile, args.train_seeds,
+             ",".join(ranges) or "none", config.range_quantile,
+             ",".join(regions) or "none", config.region_quantile, args.train_seeds,
              args.test_seeds))
     results = {}
     for k in KINDS:
