@@ -33,9 +33,14 @@ persons' gaits differ along the same direction of walking's covariance, and the 
 widens it further). With ``range_features`` a window is known only if it also lies, on
 those features, within [``range_quantile``, 1 - ``range_quantile``] of the training
 windows of the class the network takes it for (a window taken for walking must swing its
-thigh as much as some training person walked). `scripts/cv_gait.py` chose the feature
-(the log variance of the thigh's forward axis: its swing) and the quantile (0.005) over
-the training persons; `train_activity` trains with them by default.
+thigh as much as some training person walked). With ``region_features`` the same holds
+for a region instead of a box: the class's Mahalanobis distance on just those features
+(its own covariance; a 1e-6 relative ridge only to invert it) within the
+1 - ``region_quantile`` quantile of its windows' distances. `scripts/cv_gait.py --pairs`
+chose, over the training persons, the thigh's swing and the waist's lean
+(``thigh_dvar_z``, ``waist_mean_z``: carrying is a smaller gait *and* the trunk leant
+back) and q 0.0025 as a region; `train_activity` trains with them by default (and no
+range features).
 
 Sensors asleep (the power scheme of 5.4.1) send nothing: the node holds a sleeping
 sensor's last sample, and the training recordings are made the same way (`training`).
