@@ -160,6 +160,8 @@ class DriverTest(unittest.TestCase):
         cls.wait_rosout_from([DRIVER, OPT + "/driver"])
         for name in ("set_bump", "inject_garbage", "close_link", "power_cycle", "state"):
             rospy.wait_for_service("virtual_create/" + name, 10.0)
+        # the second pair's emulator may register its services after its driver is up
+        rospy.wait_for_service(OPT + "/virtual_create/state", 10.0)
         cls.set_bump = rospy.ServiceProxy("virtual_create/set_bump", SetBool)
         cls.vc_state = rospy.ServiceProxy("virtual_create/state", Trigger)
         cls.opt_state = rospy.ServiceProxy(OPT + "/virtual_create/state", Trigger)
