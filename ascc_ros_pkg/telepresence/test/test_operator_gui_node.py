@@ -38,6 +38,17 @@ def registered(uri):
     return code == 1
 
 
+def subscribed(uri):
+    """Has /operator_gui subscribed to its topics at the master at uri (its start-up done,
+    not only ``init_node``)?"""
+    try:
+        code, _, state = xmlrpc.client.ServerProxy(uri).getSystemState("/test")
+    except OSError:
+        return False
+    return code == 1 and any("/operator_gui" in nodes for topic, nodes in state[1]
+                             if topic.endswith("odom"))
+
+
 def wait(condition, timeout_s, what):
     deadline = time.monotonic() + timeout_s
     while not condition():
@@ -99,7 +110,9 @@ def test_gui_waits_for_the_master_and_registers_again_after_its_restart(tmp_path
         time.sleep(1.5)
         assert gui.poll() is None, "the GUI ended instead of waiting for the master"
         core = roscore(port, env)
-        wait(lambda: registered(uri), 40.0, "the GUI registered with the master")
+        # all of its start-up done before the master goes (not only init_node: a master
+        # gone between the two is another case, start-up against a dying master)
+        wait(lambda: subscribed(uri), 40.0, "the GUI subscribed at the master")
         stop(core)
         wait(lambda: not port_open(port), 20.0, "the old master's port closed")
         time.sleep(2.0)

@@ -86,7 +86,9 @@ class RosAdapter(AdapterSignals):
         self.rospy = rospy
         self.p = params
         self.tf2_ros = tf2_ros
-        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        # debug=False: no ~tf2_frames service, and no master call while the window is
+        # built (a master gone at that moment raised out of the constructor)
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0), debug=False)
         self.tf_listener = None
         self.last_odom = None  # wall time of the newest odometry
         self.master_ok = True
