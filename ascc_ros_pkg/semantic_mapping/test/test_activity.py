@@ -114,37 +114,52 @@ def test_unknown_activities_are_not_forced_into_a_class(trained):
     assert rec.known(feats).mean() > 0.95
 
 
-def test_the_gait_range_reports_a_smaller_gait_unknown(trained):
-    """The range feature (the thigh's swing, cv_gait.py's choice) on the fixture's
-    recognizer: carrying (0.6 of the gait) is unknown in more windows than by the
-    distance alone, and walking, standing and opening a door stay known."""
-    import copy
-    import dataclasses
-    rec, cfg = trained
-    ranged = copy.copy(rec)
-    ranged.config = dataclasses.replace(cfg, range_features=("thigh_var_z",),
-                                        range_quantile=0.005)
+def _training_windows(cfg):
+    """Features and class indices of training persons 0-3 (the ranges' and regions' fit)."""
     x, y = [], []
     for seed in (0, 1, 2, 3):
         f, lab, _ = training.record(seed, cfg)
         x.append(f)
         y.append([cfg.classes.index(a) for a in lab])
-    ranged.fit_ranges(np.vstack(x), np.concatenate(y))
+    return np.vstack(x), np.concatenate(y)
+
+
+def _refit(rec, cfg, x, y, **changes):
+    """A copy of ``rec`` with ``changes`` to its config and its ranges/regions fitted."""
+    import copy
+    import dataclasses
+    out = copy.copy(rec)
+    out.config = dataclasses.replace(cfg, **changes)
+    return out.fit_ranges(x, y)
+
+
+def _more_unknown(rec, other, cfg):
+    """activity -> per held-out person (100-102), the share of its windows ``other``
+    reports unknown beyond what ``rec`` does (30 s of the activity)."""
     lost = {}
     for seed in (100, 101, 102):
         p = Person.from_seed(seed)
         for activity in ("carrying", "walking", "standing", "opening_door"):
             data = render([(activity, 30.0)], p)
             feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
-            before, after = 1.0 - rec.known(feats).mean(), 1.0 - ranged.known(feats).mean()
+            before, after = 1.0 - rec.known(feats).mean(), 1.0 - other.known(feats).mean()
             lost.setdefault(activity, []).append(after - before)
+    return lost
+
+
+def test_the_gait_range_reports_a_smaller_gait_unknown(trained):
+    """The range feature (the thigh's swing, cv_gait.py's choice) on the fixture's
+    recognizer: carrying (0.6 of the gait) is unknown in more windows than by the
+    distance alone, and walking, standing and opening a door stay known."""
+    rec, cfg = trained
+    x, y = _training_windows(cfg)
+    ranged = _refit(rec, cfg, x, y, range_features=("thigh_var_z",), range_quantile=0.005)
+    lost = _more_unknown(rec, ranged, cfg)
     assert np.mean(lost["carrying"]) > 0.2
     for activity in ("walking", "standing", "opening_door"):
         assert max(lost[activity]) < 0.05, activity
     with pytest.raises(ValueError, match="range_features"):
-        bad = copy.copy(rec)
-        bad.config = dataclasses.replace(cfg, range_features=("thigh_swing",))
-        bad.fit_ranges(np.vstack(x), np.concatenate(y))
+        _refit(rec, cfg, x, y, range_features=("thigh_swing",))
 
 
 def test_the_gait_region_reports_carrying_unknown_and_the_node_path_gets_it(trained):
@@ -153,28 +168,12 @@ def test_the_gait_region_reports_carrying_unknown_and_the_node_path_gets_it(trai
     the trunk leant back) is unknown in more windows than by the distance alone, walking,
     standing and opening a door stay known, and the online recognizer (the node's path)
     gives the same labels as the batch."""
-    import copy
-    import dataclasses
     rec, cfg = trained
-    region = copy.copy(rec)
-    region.config = dataclasses.replace(cfg, region_features=("thigh_dvar_z",
-                                                              "waist_mean_z"),
-                                        region_quantile=0.0025)
-    x, y = [], []
-    for seed in (0, 1, 2, 3):
-        f, lab, _ = training.record(seed, cfg)
-        x.append(f)
-        y.append([cfg.classes.index(a) for a in lab])
-    region.fit_ranges(np.vstack(x), np.concatenate(y))
+    x, y = _training_windows(cfg)
+    region = _refit(rec, cfg, x, y, region_features=("thigh_dvar_z", "waist_mean_z"),
+                    region_quantile=0.0025)
     assert len(region.regions) == len(cfg.classes) and not region.range_index
-    lost = {}
-    for seed in (100, 101, 102):
-        p = Person.from_seed(seed)
-        for activity in ("carrying", "walking", "standing", "opening_door"):
-            data = render([(activity, 30.0)], p)
-            feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
-            before, after = 1.0 - rec.known(feats).mean(), 1.0 - region.known(feats).mean()
-            lost.setdefault(activity, []).append(after - before)
+    lost = _more_unknown(rec, region, cfg)
     assert np.mean(lost["carrying"]) > 0.2
     for activity in ("walking", "standing", "opening_door"):
         assert max(lost[activity]) < 0.05, activity
@@ -186,9 +185,7 @@ def test_the_gait_region_reports_carrying_unknown_and_the_node_path_gets_it(trai
                                                           data["thigh_accel"])) if r]
     assert got == labels and UNKNOWN in labels and "walking" in labels
     with pytest.raises(ValueError, match="region_features"):
-        bad = copy.copy(rec)
-        bad.config = dataclasses.replace(cfg, region_features=("thigh_swing",))
-        bad.fit_ranges(np.vstack(x), np.concatenate(y))
+        _refit(rec, cfg, x, y, region_features=("thigh_swing",))
 
 
 def test_a_model_saved_before_the_region_loads_without_one(trained):
