@@ -18,12 +18,15 @@ from its own thread.
 driver from create.launch, nothing on /clock: the conditions on the robot, where the
 serial stream is the only clock. The probe's share is then rospy's own floor.
 
-With --compare REV, a second simulator on another port runs the driver node of git
-revision REV (its `ros/driver_node.py`, on this tree's other modules) at the same time, so
-both see the same machine load; its share is printed beside.
+With --compare REV, a second simulator (with --robot: a second virtual Create) on another
+port runs the driver node of git revision REV (its `ros/driver_node.py`, on this tree's
+other modules) at the same time, so both see the same machine load; its share is printed
+beside. With --robot, --compare-params "NAME=VALUE ..." runs this tree's driver there
+instead, with those private parameters over config/create.yaml (an A/B of a setting).
 
     python3 ascc_ros_pkg/irobot_create_2_1/scripts/bench_driver_cpu.py [--duration-s 90]
         [--world corridor] [--rtf 1] [--compare 525e5cb] [--tf-listeners 3] [--robot]
+        [--compare-params "publish_rate_hz=20"]
 """
 import argparse
 import os
@@ -57,11 +60,18 @@ ROBOT_LAUNCH = """<launch>
   <include file="$(find irobot_create_2_1)/launch/virtual_create.launch">
     <arg name="link" value="%(link)s"/>
   </include>
-  <include file="$(find irobot_create_2_1)/launch/create.launch">
-    <arg name="port" value="%(link)s"/>
-  </include>
+  %(driver)s
 </launch>
 """
+ROBOT_DRIVER = """<include file="$(find irobot_create_2_1)/launch/create.launch">
+    <arg name="port" value="%(link)s"/>
+  </include>"""
+# create.launch's node, with parameters over its config file (--compare-params)
+ROBOT_DRIVER_PARAMS = """<node pkg="irobot_create_2_1" type="driver" name="irobot_create_2_1">
+    <rosparam command="load" file="$(find irobot_create_2_1)/config/create.yaml"/>
+    <param name="port" value="%(link)s"/>
+    %(params)s
+  </node>"""
 OLD_DRIVER_CODE = """import importlib.util, sys
 spec = importlib.util.spec_from_file_location('driver_node_rev', sys.argv[1])
 m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m); m.main()
@@ -76,15 +86,15 @@ def env_for(port: int):
     return env
 
 
-def wait_for_clock(port: int, timeout_s: float = 120.0) -> bool:
-    """Wait until the master on port lists a /clock publisher (the simulator is up and
-    /use_sim_time is set, so rospy nodes started now follow simulated time)."""
+def wait_for_clock(port: int, timeout_s: float = 120.0, topic: str = "/clock") -> bool:
+    """Wait until the master on port lists a ``topic`` publisher (/clock: the simulator is
+    up and /use_sim_time is set, so rospy nodes started now follow simulated time)."""
     import rosgraph
     master = rosgraph.Master("/bench_driver_cpu", master_uri="http://127.0.0.1:%d" % port)
     deadline = time.time() + timeout_s
     while time.time() < deadline:
         try:
-            if any(t == "/clock" for t, _ in master.getSystemState()[0]):
+            if any(t == topic for t, _ in master.getSystemState()[0]):
                 return True
         except Exception:  # noqa: BLE001 - master not up yet
             pass
@@ -133,41 +143,72 @@ def start_runs(args, world, tmp, log, procs):
     simulator did not come up. Every process started is appended to procs."""
     port = free_port()
     if args.robot:
-        path = os.path.join(tmp, "robot.launch")
-        with open(path, "w") as f:
-            f.write(ROBOT_LAUNCH % {"link": os.path.join(tmp, "create.pty")})
-        robot = subprocess.Popen(["roslaunch", "-p", str(port), path], env=env_for(port),
-                                 stdout=log, stderr=subprocess.STDOUT)
-        procs.append(robot)
-        return [("driver (this tree, no simulator)", port, robot, None)]
+        runs = [("driver (this tree, no simulator)", port,
+                 start_robot(port, tmp, "a", log, procs, ROBOT_DRIVER), None)]
+        if args.compare_params:
+            params = "\n    ".join('<param name="%s" value="%s"/>' % tuple(kv.split("=", 1))
+                                   for kv in args.compare_params.split())
+            port_b = free_port()
+            runs.append(("driver (%s)" % args.compare_params, port_b,
+                         start_robot(port_b, tmp, "b", log, procs,
+                                     ROBOT_DRIVER_PARAMS.replace("%(params)s", params)), None))
+        elif args.compare:
+            port_b = free_port()
+            start_robot(port_b, tmp, "b", log, procs, "")
+            # the old node sets its private parameters in init_node: the master must be up
+            if not wait_for_clock(port_b, topic="/virtual_create/ground_truth"):
+                return None
+            old = start_old_driver(args.compare, port_b, tmp, os.path.join(tmp, "b.pty"), log)
+            procs.append(old)
+            runs.append(("driver (%s)" % args.compare, port_b, None, old.pid))
+        return runs
     sim = start_sim(port, world, args.rtf, os.path.join(tmp, "a"), log)
     procs.append(sim)
     runs = [("driver (this tree)", port, sim, None)]
     if not wait_for_clock(port):
         return None
     if args.compare:
-        src = subprocess.run(
-            ["git", "-C", TOP, "show", args.compare + ":ascc_ros_pkg/irobot_create_2_1/"
-             "src/irobot_create_2_1/ros/driver_node.py"],
-            check=True, capture_output=True, text=True).stdout
-        path = os.path.join(tmp, "driver_node_rev.py")
-        with open(path, "w") as f:
-            f.write(src)
         port_b = free_port()
         sim_b = start_sim(port_b, world, args.rtf, os.path.join(tmp, "b"), log, False)
         procs.append(sim_b)
         if not wait_for_clock(port_b):
             return None
-        old = subprocess.Popen(
-            [sys.executable, "-c", OLD_DRIVER_CODE, path, "__name:=driver",
-             "_port:=" + os.path.join(tmp, "b", "create.pty")],
-            env=env_for(port_b), stdout=log, stderr=subprocess.STDOUT)
+        old = start_old_driver(args.compare, port_b, tmp,
+                               os.path.join(tmp, "b", "create.pty"), log)
         procs.append(old)
         runs.append(("driver (%s)" % args.compare, port_b, sim_b, old.pid))
     return runs
 
 
-def main() -> int:
+def start_robot(port, tmp, name, log, procs, driver):
+    """roslaunch of a virtual Create on wall time at tmp/NAME.pty and ``driver`` (launch
+    XML, %(link)s = that pty) on the master at ``port``."""
+    link = os.path.join(tmp, name + ".pty")
+    path = os.path.join(tmp, name + ".launch")
+    with open(path, "w") as f:
+        f.write(ROBOT_LAUNCH % {"link": link, "driver": driver.replace("%(link)s", link)})
+    robot = subprocess.Popen(["roslaunch", "-p", str(port), path], env=env_for(port),
+                             stdout=log, stderr=subprocess.STDOUT)
+    procs.append(robot)
+    return robot
+
+
+def start_old_driver(rev, port, tmp, link, log):
+    """The driver node of git revision ``rev`` (its ros/driver_node.py on this tree's other
+    modules, default parameters) on the master at ``port``, serving ``link``."""
+    src = subprocess.run(
+        ["git", "-C", TOP, "show", rev + ":ascc_ros_pkg/irobot_create_2_1/"
+         "src/irobot_create_2_1/ros/driver_node.py"],
+        check=True, capture_output=True, text=True).stdout
+    path = os.path.join(tmp, "driver_node_rev.py")
+    with open(path, "w") as f:
+        f.write(src)
+    return subprocess.Popen(
+        [sys.executable, "-c", OLD_DRIVER_CODE, path, "__name:=driver", "_port:=" + link],
+        env=env_for(port), stdout=log, stderr=subprocess.STDOUT)
+
+
+def parse_args():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration-s", type=float, default=90.0, help="wall seconds measured")
     ap.add_argument("--warmup-s", type=float, default=20.0, help="wall seconds before")
@@ -179,9 +220,18 @@ def main() -> int:
                     help="idle TF listener nodes beside each driver (3 in the stack)")
     ap.add_argument("--robot", action="store_true",
                     help="no simulator: the virtual Create on wall time (as on the robot)")
+    ap.add_argument("--compare-params", metavar="'NAME=VALUE ...'",
+                    help="with --robot: a second driver of this tree with these parameters")
     args = ap.parse_args()
-    if args.robot and args.compare:
-        ap.error("--compare needs the simulator (not with --robot)")
+    if args.compare_params and not args.robot:
+        ap.error("--compare-params needs --robot")
+    if args.compare_params and args.compare:
+        ap.error("--compare and --compare-params: one or the other")
+    return args
+
+
+def main() -> int:
+    args = parse_args()
     world = os.path.join(TOP, "ascc_ros_pkg", "ascc_sim", "worlds", args.world + ".yaml")
     tmp = tempfile.mkdtemp(prefix="bench_driver_cpu_")
     procs = []
