@@ -1,8 +1,9 @@
 """SerialLink against a real pseudo-terminal: open, read, write, loss and reopen."""
 import os
+import time
 import tty
 
-from irobot_create_2_1.link import SerialLink
+from irobot_create_2_1.link import PACE_MARGIN_S, SerialLink
 
 
 class FakeClock:
@@ -112,6 +113,91 @@ def test_read_waits_for_min_bytes_within_the_timeout():
         assert got == [b"abc", b"def"]        # the timeout returns what came
         os.write(master, b"0123456789")
         assert link.read(max_bytes=4, min_bytes=8) == b"0123"  # never more than max
+        link.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_read_paced_sleeps_for_the_missing_bytes_and_returns_all_that_waits():
+    """A stream at 1000 bytes/s: asking for 8 bytes with 3 waiting sleeps 5 ms (+ the
+    margin), once, and returns everything buffered by then, not only 8 bytes."""
+    master, slave, path = make_pty()
+    try:
+        link = SerialLink(path, read_timeout_s=0.5)
+        assert link.ensure_open()
+        os.write(master, b"abc")
+        time.sleep(0.01)
+        naps = []
+
+        def sleep(s):
+            naps.append(s)
+            os.write(master, b"defghijk" if len(naps) == 1 else b"")
+            time.sleep(0.01)  # let the pty hand the bytes over
+
+        assert link.read_paced(8, 1000.0, sleep=sleep) == b"abcdefghijk"
+        assert len(naps) == 1 and abs(naps[0] - (0.005 + PACE_MARGIN_S)) < 1e-9
+        os.write(master, b"0123456789")
+        time.sleep(0.01)
+        assert link.read_paced(4, 1000.0, max_bytes=6, sleep=sleep) == b"012345"
+        assert len(naps) == 1  # enough was waiting: no sleep
+        link.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_read_paced_returns_what_came_within_the_timeout():
+    master, slave, path = make_pty()
+    try:
+        link = SerialLink(path, read_timeout_s=0.05)
+        assert link.ensure_open()
+        os.write(master, b"ab")
+        t0 = time.monotonic()
+        assert link.read_paced(10, 1e4) == b"ab"  # never comes: the timeout ends it
+        assert 0.04 < time.monotonic() - t0 < 0.5
+        assert link.read_paced(10, 1e4) == b""  # nothing at all: b'' after read()
+        assert link.is_open
+        link.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_read_paced_finds_a_device_that_hung_up():
+    master, slave, path = make_pty()
+    link = SerialLink(path, read_timeout_s=0.05)
+    assert link.ensure_open()
+    os.close(master)
+    os.close(slave)
+    for _ in range(5):
+        link.read_paced(10, 1e4)
+        if not link.is_open:
+            break
+    assert not link.is_open and link.failures >= 1
+
+
+def test_read_paced_follows_a_stream_faster_than_its_nominal_rate():
+    """A simulated robot at 4x real time sends 4000 bytes/s where 1000 are nominal: after
+    two reads the pacing sleeps a quarter as long (it would otherwise hold back the
+    watchdog and the commands, which run once per read)."""
+    master, slave, path = make_pty()
+    try:
+        clock = FakeClock()
+        link = SerialLink(path, read_timeout_s=0.5, clock=clock)
+        assert link.ensure_open()
+        naps = []
+
+        def sleep(s):
+            naps.append(s)
+            clock.t += s
+            os.write(master, b"x" * int(round(4000 * s)))
+            time.sleep(0.005)
+
+        got = [len(link.read_paced(40, 1000.0, sleep=sleep)) for _ in range(3)]
+        assert got[0] == got[1] == 164  # 41 ms of the stream each
+        assert abs(naps[0] - 0.041) < 1e-9 and abs(naps[1] - 0.041) < 1e-9
+        assert abs(naps[2] - (40 / 4000.0 + PACE_MARGIN_S)) < 1e-9
         link.close()
     finally:
         os.close(master)

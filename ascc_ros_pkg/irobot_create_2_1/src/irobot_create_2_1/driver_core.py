@@ -83,7 +83,7 @@ class DriverParams:
                                   "button, charger or light-bumper bit goes out at once",
                                   gt=0.0)
     sensor_timeout_s: float = param(1.0, "[s] no stream frame for this long -> restart it")
-    frames_per_read: int = param(2, "stream frames (15 ms each) the reader waits for before "
+    frames_per_read: int = param(3, "stream frames (15 ms each) the reader waits for before "
                                  "it parses, runs the watchdog and publishes; 1: every frame",
                                  ge=1, le=16)
     wheel_base_m: float = param(0.0, "[m] wheel separation; 0: the model's (0.258 / 0.235)",

@@ -5,6 +5,8 @@ from typing import Callable, Optional
 
 import serial
 
+PACE_MARGIN_S = 0.001  # read_paced sleeps this much past the bytes' expected arrival
+
 
 class SerialLink:
     def __init__(self, port: str, baud: int = 57600, read_timeout_s: float = 0.02,
@@ -24,6 +26,8 @@ class SerialLink:
         self.opens = 0          # successful opens (1 + reconnects)
         self.failures = 0       # failed opens and I/O errors
         self.last_error = ""
+        self._paced_rate = 0.0  # bytes/s seen by read_paced over the last reads
+        self._paced_end: Optional[float] = None  # when the last read_paced with bytes ended
 
     @property
     def is_open(self) -> bool:
@@ -63,6 +67,41 @@ class SerialLink:
             # pyserial raises TypeError from inside read() when the fd vanished
             self._fail("read from %s failed: %s" % (self.port, exc))
             return b""
+
+    def read_paced(self, min_bytes: int, rate_bytes_s: float, max_bytes: int = 4096,
+                   sleep: Callable[[float], None] = time.sleep) -> bytes:
+        """Like :meth:`read`, for a stream of known rate: instead of waking on every chunk
+        the kernel hands over (a frame, or a USB packet), it sleeps for the time the missing
+        bytes take (plus 1 ms) and looks again, until ``min_bytes`` wait or the read
+        timeout passed; then it returns all that waits (up to ``max_bytes``; b'' when
+        nothing came or the port is closed). One wake-up per ``min_bytes`` of a steady
+        stream instead of one per chunk. The rate is ``rate_bytes_s`` [bytes/s, wall
+        time], or the rate the bytes came at over the last reads when that is higher (a
+        simulated robot faster than real time sends its stream faster). When nothing came
+        by the timeout, it ends with :meth:`read` (one more read timeout), which also finds
+        a device that hung up (it reads as ready with no data)."""
+        if self._ser is None:
+            return b""
+        deadline = self._clock() + self.read_timeout_s
+        rate = max(rate_bytes_s, self._paced_rate)
+        try:
+            while True:
+                waiting = self._ser.in_waiting
+                left = deadline - self._clock()
+                if waiting >= min_bytes or left <= 0.0:
+                    break
+                sleep(min(left, (min_bytes - waiting) / rate + PACE_MARGIN_S))
+            data = self._ser.read(min(waiting, max_bytes)) if waiting > 0 else \
+                self.read(max_bytes, 1)
+        except (serial.SerialException, OSError, TypeError) as exc:
+            self._fail("read from %s failed: %s" % (self.port, exc))
+            return b""
+        end = self._clock()
+        if self._paced_end is not None and end > self._paced_end and data:
+            seen = len(data) / (end - self._paced_end)
+            self._paced_rate = 0.5 * (self._paced_rate + seen) if self._paced_rate else seen
+        self._paced_end = end if data else None
+        return data
 
     def write(self, data: bytes) -> bool:
         if self._ser is None:

@@ -19,6 +19,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Header
 
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
@@ -65,11 +66,13 @@ class CreateDriverNode:
             robot=robot_model(p.robot_model), baud=p.baud,
             light_bump_speed_m_s=p.light_bump_speed_m_s, stuck_after_s=p.stuck_after_s)
         self.create2 = self.core.robot.encoder_odometry
-        # The reader asks for frames_per_read frames at once (pyserial waits for them in
-        # one call): fewer wake-ups of the Python thread than one per 15 ms frame. Its
-        # timeout bounds the wait when frames are late or missing; the loop also runs
-        # the command timer, so it must come round.
+        # The reader waits for frames_per_read frames at once, sleeping for the time they
+        # take at the stream's rate rather than waking on every frame the port delivers:
+        # one wake-up of the Python thread per frames_per_read x 15 ms. Its timeout bounds
+        # the wait when frames are late or missing; the loop also runs the command timer,
+        # so it must come round.
         self.read_bytes = p.frames_per_read * self.core.frame_bytes
+        self.stream_bytes_s = self.core.frame_bytes / protocol.STREAM_PERIOD_S
         self.link = SerialLink(self.port, self.core.baud, read_timeout_s=(
             p.frames_per_read * protocol.STREAM_PERIOD_S + 0.01))
         self.lock = threading.Lock()
@@ -186,7 +189,7 @@ class CreateDriverNode:
                 continue
             # Blocks up to the read timeout, outside the lock: the loop comes round at
             # least that often, so the command timer keeps its mean period.
-            data = self.link.read(min_bytes=self.read_bytes)
+            data = self.link.read_paced(self.read_bytes, self.stream_bytes_s)
             if not data:
                 continue
             try:
@@ -277,18 +280,18 @@ class CreateDriverNode:
             self.publish_sensors(values, stamp)
 
     def publish_sensors(self, values, stamp):
-        packet = SensorPacket(**sensor_state.brown_fields(values))
-        packet.header.stamp = stamp
-        packet.header.frame_id = self.base_frame
-        self.packet_pub.publish(packet)
-        hz = Hazards(**sensor_state.hazards(values))
-        hz.header = packet.header
-        self.hazard_pub.publish(hz)
-        light = sensor_state.light_bumper(values)
-        if self.light_pub is not None and light:
-            msg = LightBumper(**light)
-            msg.header = packet.header
-            self.light_pub.publish(msg)
+        """sensorPacket, hazards and light_bumper, each built only while someone
+        subscribes to it (nothing is latched, so an unheard message is lost anyway)."""
+        header = Header(stamp=stamp, frame_id=self.base_frame)
+        if self.packet_pub.get_num_connections() > 0:
+            self.packet_pub.publish(SensorPacket(header=header,
+                                                 **sensor_state.brown_fields(values)))
+        if self.hazard_pub.get_num_connections() > 0:
+            self.hazard_pub.publish(Hazards(header=header, **sensor_state.hazards(values)))
+        if self.light_pub is not None and self.light_pub.get_num_connections() > 0:
+            light = sensor_state.light_bumper(values)
+            if light:
+                self.light_pub.publish(LightBumper(header=header, **light))
 
     def publish_odom(self, now, x, y, theta, pose_cov, stamp=None):
         """Odometry (and TF) at ``now`` [s] (``stamp``: the same as a rospy.Time). The
