@@ -69,10 +69,10 @@ class PreparedScan:
     """One scan's geometry in the base frame, ready for the mapper (see module doc)."""
 
     __slots__ = ("origin", "hits", "match", "match_range", "max_urange", "free_polygon",
-                 "n_beams", "n_hits", "n_free_only")
+                 "n_beams", "n_hits", "n_free_only", "angles", "seen")
 
     def __init__(self, origin, hits, match, match_range, max_urange, free_polygon, n_beams,
-                 n_hits, n_free_only):
+                 n_hits, n_free_only, angles=None, seen=None):
         self.origin = origin
         self.hits = hits
         self.match = match
@@ -82,6 +82,8 @@ class PreparedScan:
         self.n_beams = n_beams
         self.n_hits = n_hits
         self.n_free_only = n_free_only
+        self.angles = angles  # (n_beams,) base frame [rad], None: unknown
+        self.seen = seen      # (n_beams,) [m]
 
     @property
     def usable(self) -> bool:
@@ -170,5 +172,52 @@ def prepare_scan(ranges, angle_min: float, angle_increment: float, range_min: fl
         keep_n = max(int(math.floor((2.0 * math.pi - 1e-6) / abs(angle_increment))), 1)
         ok = ok & (np.arange(n) < keep_n)
     polygon = _wedge_polygon(origin, angles, 0.5 * abs(angle_increment), reach, ok)
+    seen = _seen_ranges(np.where(is_hit, np.nan_to_num(r), max_urange), ok)
     return PreparedScan(origin, hits, match, match_range, max_urange, polygon, n,
-                        int(is_hit.sum()), int(free_only.sum()))
+                        int(is_hit.sum()), int(free_only.sum()), angles, seen)
+
+
+def _seen_ranges(reach: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """How far each beam saw: ``reach`` where ``ok``; a discarded beam (dropout, NaN) says
+    nothing, so it takes the larger of its nearest usable neighbours' (0 if none)."""
+    n = reach.size
+    if not ok.any():
+        return np.zeros(n)
+    idx = np.arange(n)
+    last = np.maximum.accumulate(np.where(ok, idx, -1))               # usable at or before
+    nxt = np.minimum.accumulate(np.where(ok, idx, n)[::-1])[::-1]     # usable at or after
+    padded = np.append(np.where(ok, reach, 0.0), 0.0)
+    before = np.where(last >= 0, padded[np.maximum(last, 0)], 0.0)
+    after = padded[np.minimum(nxt, n)]
+    return np.where(ok, reach, np.maximum(before, after))
+
+
+def seen_before(previous: PreparedScan, motion, pts: np.ndarray, margin: float) -> np.ndarray:
+    """Which end points ``pts`` (M, 2, base frame) of a scan taken after the robot moved by
+    ``motion`` (dx, dy, dtheta in the frame of ``previous``) lay within what the ``previous``
+    scan saw: in its field of view and, along their direction from its laser, no more than
+    ``margin`` [m] beyond its range there (the largest of the nearest beam and its two
+    neighbours, so a single dropout does not hide a surface). The others are surfaces that
+    were out of range, behind the field of view or *occluded* then (a door recess's back
+    wall coming into view behind its jamb as the robot drives by): the map built so far
+    ends where they begin. Returns a bool mask (M,); all True if ``previous`` carries no
+    beam geometry."""
+    m = pts.shape[0]
+    if previous.angles is None or previous.angles.size < 2:
+        return np.ones(m, dtype=bool)
+    c, s = math.cos(motion[2]), math.sin(motion[2])
+    qx = motion[0] + c * pts[:, 0] - s * pts[:, 1] - previous.origin[0]
+    qy = motion[1] + s * pts[:, 0] + c * pts[:, 1] - previous.origin[1]
+    angles = previous.angles
+    first, step = float(angles[0]), float(angles[1] - angles[0])
+    mid = 0.5 * (first + float(angles[-1]))
+    # direction relative to the middle of the field of view, wrapped to [-pi, pi)
+    phi = np.arctan2(qy, qx)
+    rel = np.mod(phi - mid + math.pi, 2.0 * math.pi) - math.pi
+    j = np.rint((rel + mid - first) / step).astype(np.int64)
+    n = angles.size
+    inside = (j >= 0) & (j < n)
+    padded = np.concatenate([[0.0], previous.seen, [0.0]])
+    k = np.clip(j, 0, n - 1) + 1
+    reach = np.maximum(np.maximum(padded[k - 1], padded[k]), padded[k + 1])
+    return inside & (np.hypot(qx, qy) <= reach + margin)

@@ -11,7 +11,8 @@ One filter update, given the odometry motion since the last update and a prepare
    (Mahalanobis, motion-model covariance); d_b is the distance from beam b's end point to the
    nearest occupied cell of the particle's *own* map, bilinearly interpolated in a distance
    field capped at ``match_radius``. Beams longer than maxUrange - motion - new_area_margin
-   are left out: they reach past what the previous scan could see;
+   are left out (they reach past what the map holds), and optionally (``seen_margin_m``)
+   beams ending beyond what the previous update's scan saw in their direction;
 3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, match_radius)^2 / (2 lsigma^2);
 4. pose entropy H = -sum w_i log w_i of the normalised weights (published by the node);
 5. selective resampling when N_eff = 1 / sum w_i^2 < resampleThreshold * N (low variance);
@@ -43,7 +44,7 @@ from ascc_common.grid import GridInfo
 from ascc_common.params import param
 from ascc_common.pose2d import compose, wrap_angle
 from ascc_navigation.grid import occupancy_from_counts
-from ascc_navigation.laser import PreparedScan
+from ascc_navigation.laser import PreparedScan, seen_before
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
@@ -93,6 +94,17 @@ class RbpfConfig:
     # of a wall, and would pull the pose back onto it: corridors would come out short.
     new_area_margin: float = param(0.1, "[m] beams beyond maxUrange - motion - this are not "
                                    "matched (not gmapping)")
+    # Not in gmapping: the same for surfaces the previous update's scan could not see because
+    # something was in front of them (``laser.seen_before``): driving past a door recess, its
+    # back wall comes into view behind the jamb from the far end towards the robot, a cell or
+    # two per update; matched, those end points pull the pose onto the end of the mapped part
+    # of the wall, i.e. forwards (+0.6-0.7 mm per update on the corridor with the map at the
+    # true poses). Off by default: in the filter that pull cancels a backward one of the same
+    # size from far walls ahead (docs/results/ascc_navigation.md), and removing only this
+    # one made the corridor map worse. <0 disables it.
+    seen_margin_m: float = param(-1.0, "[m] beams ending more than this beyond what the "
+                                 "previous update's scan saw in their direction (occluded, out "
+                                 "of view or range) are not matched; <0 off (not gmapping)")
     # Not in gmapping: re-localisation of a particle whose matched scan fits its map badly
     # (fewer than recover_score of the beams, as a fraction of the perfect score): odometry
     # that turned by an unmodelled amount (a wheel slip, odometry stamped late while the
@@ -541,6 +553,7 @@ class RbpfSlam:
         # each particle's trajectory: the pose at which it registered the scan of update u
         # (column u), carried through resampling like its map (gmapping's particle tree)
         self._history = np.zeros((cfg.particles, 64, 3))
+        self._previous: Optional[PreparedScan] = None  # the scan of the last update
 
     @property
     def weights(self) -> np.ndarray:
@@ -561,6 +574,7 @@ class RbpfSlam:
         self.best = 0
         stats = UpdateStats(entropy=weight_entropy(self.weights), neff=float(self.cfg.particles))
         stats.grown = self._register(scan)
+        self._previous = scan
         self.initialized = True
         self.updates = 1
         self._record(0)
@@ -612,7 +626,11 @@ class RbpfSlam:
         odom_delta = np.asarray(odom_delta, dtype=float)
         self.poses = sample_motion(self.poses, odom_delta, cfg, self.rng)
         reach = scan.max_urange - math.hypot(odom_delta[0], odom_delta[1]) - cfg.new_area_margin
-        pts = scan.match[scan.match_range <= reach]
+        use = scan.match_range <= reach
+        if cfg.seen_margin_m >= 0.0 and self._previous is not None:
+            use &= seen_before(self._previous, odom_delta, scan.match, cfg.seen_margin_m)
+        pts = scan.match[use]
+        self._previous = scan
         if pts.shape[0]:
             fields = self._fields(pts)
             s_xy, s_th = motion_noise(odom_delta, cfg)
