@@ -17,6 +17,11 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
     localisation: the rest of the gap is the pose error's);
   * "along" / "across": the largest pose error along / across the robot's true heading
     (on the corridor: along / across the corridor);
+  * "inc_mm": the error of the map's own trajectory (the best particle's poses at the
+    updates, which its map was built from) in each translating update's forward motion,
+    mean / std [mm], and the odometry's ("odom_inc_mm"): a systematic along-motion bias
+    shows as a mean, a random walk as the std (its mean's standard error is std /
+    sqrt(updates));
   * simulator worlds: ``ascc_eval.map_quality`` on the final map: the sides of the outer
     outline, map minus floor plan in % ("sides_%"), and the largest corner angle error
     ("corner"); ``--save DIR`` also writes each map (map_server files) and its overlay PNG.
@@ -46,7 +51,7 @@ sys.path.insert(0, os.path.join(NAV, "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.params import from_params, parameters  # noqa: E402
-from ascc_common.pose2d import compose  # noqa: E402
+from ascc_common.pose2d import compose, relative  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
 from ascc_navigation.grid import map_agreement  # noqa: E402
@@ -187,6 +192,21 @@ def odometry(kind, traj, rng):
                             robot["encoder_noise_m_per_sqrt_m"])
 
 
+def increment_errors(truth, estimate, odom, min_step_m=0.1):
+    """Mean and std [mm] of the error in forward motion of the translating increments
+    (> ``min_step_m``) between consecutive updates: of ``estimate`` and of ``odom`` (poses
+    (T, 3) at the same updates as ``truth``); NaN if the lengths differ (a reset)."""
+    if truth.shape[0] != estimate.shape[0] or truth.shape[0] < 3:
+        return (float("nan"),) * 2, (float("nan"),) * 2
+    true_inc = relative(truth[:-1], truth[1:])
+    moving = np.hypot(true_inc[:, 0], true_inc[:, 1]) > min_step_m
+    out = []
+    for poses in (estimate, odom):
+        err = 1e3 * (relative(poses[:-1], poses[1:])[moving, 0] - true_inc[moving, 0])
+        out.append((float(err.mean()), float(err.std())))
+    return out[0], out[1]
+
+
 def run(world, params, seed, odom_kind, save=None):
     rng = np.random.default_rng(seed)
     traj = S.waypoint_trajectory(world.route, v=0.3, w=0.8, dt=SCAN_PERIOD_S)
@@ -197,7 +217,7 @@ def run(world, params, seed, odom_kind, save=None):
     spec = world.spec
     times, walls, errors, statuses = [], [], [], {}
     along, across = [0.0], [0.0]
-    true_poses, scans = [], []  # of the updates, for the map at the true poses
+    true_poses, scans, odom_poses = [], [], []  # of the updates (map at the true poses)
     k = 0
     for k in range(0, traj.shape[0], FEED_EVERY):
         scan = M.ScanInput(k * SCAN_PERIOD_S, world.scan(traj[k]), spec.angle_min,
@@ -208,6 +228,7 @@ def run(world, params, seed, odom_kind, save=None):
         statuses[out.status] = statuses.get(out.status, 0) + 1
         if out.map_changed:
             true_poses.append(traj[k])
+            odom_poses.append(odom[k])
             scans.append(mapper._prepare(scan, world.mount))
         if out.status == M.UPDATED:
             times.append(cpu)
@@ -233,7 +254,10 @@ def run(world, params, seed, odom_kind, save=None):
             prefix = os.path.join(save, "%s_seed%d" % (world.name, seed))
             save_map(prefix + ".yaml", est_grid, est_info)
         sides, corner = world.quality(est_grid, est_info, prefix)
+    inc, odom_inc = increment_errors(np.array(true_poses), mapper.slam.trajectory(),
+                                     np.array(odom_poses))
     return {
+        "inc": inc, "odom_inc": odom_inc,
         "along": max(along), "across": max(across), "sides": sides, "corner": corner,
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
@@ -268,11 +292,11 @@ def main():
         params["particles"] = args.particles
     print("mapper benchmark, %s odometry, parameters: %s" % (args.odometry, " ".join(
         "%s=%s" % kv for kv in sorted(params.items()))))
+    columns = ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
+               "free", "occ", "known", "end_err", "max_err", "along", "across", "odom", "map",
+               "maps", "ideal", "cpu_s", "inc_mm", "odom_inc_mm", "sides_% corner_deg")
     header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %6s %6s %7s %11s %6s %7s "
-              "%6s  %s" % ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms",
-                           "accuracy", "free", "occ", "known", "end_err", "max_err", "along",
-                           "across", "odom", "map", "maps", "ideal", "cpu_s",
-                           "sides_% corner_deg"))
+              "%6s %11s %11s  %s" % columns)
     print(header)
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
@@ -281,12 +305,14 @@ def main():
             r = run(world, params, seed, args.odometry, args.save)
             a = r["acc"]
             print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
-                  "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f  %s %.2f"
+                  "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "
+                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f"
                   % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
                      r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
                      100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
                      r["along"], r["across"], r["odom_err"], r["map_m"][0], r["map_m"][1],
-                     r["maps_mb"], 100 * r["ideal"], r["cpu_s"],
+                     r["maps_mb"], 100 * r["ideal"], r["cpu_s"], r["inc"][0], r["inc"][1],
+                     r["odom_inc"][0], r["odom_inc"][1],
                      " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"]))
             sys.stdout.flush()
 
