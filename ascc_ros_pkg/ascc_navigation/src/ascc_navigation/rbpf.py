@@ -98,10 +98,9 @@ class RbpfConfig:
     # something was in front of them (``laser.seen_before``): driving past a door recess, its
     # back wall comes into view behind the jamb from the far end towards the robot, a cell or
     # two per update; matched, those end points pull the pose onto the end of the mapped part
-    # of the wall, i.e. forwards (+0.6-0.7 mm per update on the corridor with the map at the
-    # true poses). Off by default: in the filter that pull cancels a backward one of the same
-    # size from far walls ahead (docs/results/ascc_navigation.md), and removing only this
-    # one made the corridor map worse. <0 disables it.
+    # of the wall, i.e. forwards (+0.3-0.7 mm per update on the corridor; with the check
+    # -0.1 to -0.3 mm: ascc_eval/scripts/mapper_along_bias.py). Off by default: the
+    # corridor maps came out worse with it (docs/results/ascc_navigation.md). <0: off.
     seen_margin_m: float = param(-1.0, "[m] beams ending more than this beyond what the "
                                  "previous update's scan saw in their direction (occluded, out "
                                  "of view or range) are not matched; <0 off (not gmapping)")
@@ -164,6 +163,7 @@ class UpdateStats:
     best: int = 0              # index of the best particle after the update
     mean_score: float = 0.0    # mean match score over particles [beams]
     matched: int = 0           # particles whose matched pose was accepted
+    beams: int = 0             # end points matched (after the new-area / seen cuts)
     recovered: int = 0         # particles moved by the wide heading search
     degenerate: int = 0        # particles that kept the prediction in some direction
     grown: bool = False        # the map grew
@@ -630,6 +630,7 @@ class RbpfSlam:
         if cfg.seen_margin_m >= 0.0 and self._previous is not None:
             use &= seen_before(self._previous, odom_delta, scan.match, cfg.seen_margin_m)
         pts = scan.match[use]
+        stats.beams = int(pts.shape[0])
         self._previous = scan
         if pts.shape[0]:
             fields = self._fields(pts)
