@@ -319,9 +319,12 @@ def test_grouping_gives_one_reachable_goal_per_cluster():
     assert np.array_equal(whole.goals_rc, groups.goals + [r0, c0])
 
 
+@pytest.mark.parametrize("band", [1, 3, 7, 64])
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_known_window_is_the_bounding_box_of_known_cells(seed):
+def test_known_window_is_the_bounding_box_of_known_cells(seed, band, monkeypatch):
+    from frontier_detector import frontiers
     from frontier_detector.frontiers import known_window
+    monkeypatch.setattr(frontiers, "KNOWN_SCAN_ROWS", band)     # bands read inwards
     rng = np.random.default_rng(seed)
     g = np.full((70, 90), UNKNOWN, np.int8)
     r0, c0 = rng.integers(0, 40), rng.integers(0, 50)
@@ -334,6 +337,9 @@ def test_known_window_is_the_bounding_box_of_known_cells(seed):
         rr1, cc1 = min(70, y + h + margin), min(90, x + w + margin)
         assert known_window(g, margin) == (rr0, cc0, rr1 - rr0, cc1 - cc0)
     assert known_window(np.full((5, 5), UNKNOWN, np.int8), 2) is None
+    one = np.full((9, 11), UNKNOWN, np.int8)
+    one[4, 6] = OCCUPIED                                      # a single known cell
+    assert known_window(one, 0) == (4, 6, 1, 1)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 5])    # maps with view points

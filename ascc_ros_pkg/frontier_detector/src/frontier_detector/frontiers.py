@@ -57,6 +57,7 @@ OFF_MAP = 50                                       # padding value, see _window_
 # once the patches would cover more than this fraction of the window
 NEAR_FULL_FRACTION = 0.25
 PHASE1_STRIP_CELLS = 720_000                       # phase1_cells: cells per strip
+KNOWN_SCAN_ROWS = 64                               # known_window: rows per band
 
 
 @dataclass
@@ -134,18 +135,35 @@ class FrontierResult:
         return out
 
 
+def _first_known_row(u8: np.ndarray, reverse: bool) -> Optional[int]:
+    """Index of the first (last if reverse) row of the uint8 view holding a known cell (a
+    byte below 255), or None; read in bands of KNOWN_SCAN_ROWS rows from that end, so that
+    only the unknown border and one band are read."""
+    n = u8.shape[0]
+    band = max(1, KNOWN_SCAN_ROWS)
+    for i in range(0, n, band):
+        a, b = (max(0, n - i - band), n - i) if reverse else (i, min(n, i + band))
+        hit = np.flatnonzero(u8[a:b].min(axis=1) != 255)
+        if hit.size:
+            return a + int(hit[-1] if reverse else hit[0])
+    return None
+
+
 def known_window(grid: np.ndarray, margin: int) -> Optional[Tuple[int, int, int, int]]:
     """(row0, col0, rows, cols) of the bounding box of known cells grown by margin, or None."""
     # int8 -1 is uint8 255: a row (column) holds a known cell iff its minimum is below 255.
-    # Two numpy reductions run several times faster than a mask and cv2.boundingRect; the
-    # columns' one only over the rows that hold known cells.
+    # Rows are scanned inwards from the top and the bottom in bands (the known rows between
+    # are not read for this); the columns' minima come from one sequential pass over the
+    # known rows (column bands would touch a page per row each). numpy reductions run
+    # several times faster than a mask and cv2.boundingRect.
     u8 = grid.view(np.uint8)
-    rows = np.flatnonzero(u8.min(axis=1) != 255)
-    if rows.size == 0:
+    top = _first_known_row(u8, False)
+    if top is None:
         return None
-    cols = np.flatnonzero(u8[rows[0]: rows[-1] + 1].min(axis=0) != 255)
-    r0, c0 = max(0, int(rows[0]) - margin), max(0, int(cols[0]) - margin)
-    r1 = min(grid.shape[0], int(rows[-1]) + 1 + margin)
+    bottom = _first_known_row(u8, True)
+    cols = np.flatnonzero(u8[top: bottom + 1].min(axis=0) != 255)
+    r0, c0 = max(0, top - margin), max(0, int(cols[0]) - margin)
+    r1 = min(grid.shape[0], bottom + 1 + margin)
     c1 = min(grid.shape[1], int(cols[-1]) + 1 + margin)
     return r0, c0, r1 - r0, c1 - c0
 

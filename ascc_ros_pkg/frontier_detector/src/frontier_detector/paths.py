@@ -104,14 +104,17 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
 
     allow = np.zeros((hp, wp), np.uint8)
     inner = allow[1:-1, 1:-1]
-    # Bits: E, W, S, N; a diagonal move needs one of its two L-shaped detours.
+    # Bits: E, W, S, N; a diagonal move needs one of its two L-shaped detours. OpenCV on
+    # the 0/1 bytes (several times faster than numpy's bool operators here); each move
+    # sets its bit by one masked OR.
+    band, bor = cv2.bitwise_and, cv2.bitwise_or
     for bit, m in enumerate((
             at(e, 0, 0), at(e, 0, -1), at(s, 0, 0), at(s, -1, 0),
-            (at(e, 0, 0) & at(s, 0, 1)) | (at(s, 0, 0) & at(e, 1, 0)),          # SE
-            (at(e, 0, -1) & at(s, 0, -1)) | (at(s, 0, 0) & at(e, 1, -1)),       # SW
-            (at(e, 0, 0) & at(s, -1, 1)) | (at(s, -1, 0) & at(e, -1, 0)),       # NE
-            (at(e, 0, -1) & at(s, -1, -1)) | (at(s, -1, 0) & at(e, -1, -1)))):  # NW
-        inner |= m << np.uint8(bit) if bit else m
+            bor(band(at(e, 0, 0), at(s, 0, 1)), band(at(s, 0, 0), at(e, 1, 0))),          # SE
+            bor(band(at(e, 0, -1), at(s, 0, -1)), band(at(s, 0, 0), at(e, 1, -1))),       # SW
+            bor(band(at(e, 0, 0), at(s, -1, 1)), band(at(s, -1, 0), at(e, -1, 0))),       # NE
+            bor(band(at(e, 0, -1), at(s, -1, -1)), band(at(s, -1, 0), at(e, -1, -1))))):  # NW
+        cv2.bitwise_or(inner, 1 << bit, dst=inner, mask=m)
     return CoarseGraph(k, (hp, wp), allow.ravel())
 
 

@@ -129,18 +129,21 @@ def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.nd
     vals = np.take(local, ((dr + half) * side + (dc + half)).ravel(), axis=1
                    ).reshape(n, dr.shape[0], n_steps)                       # (C, R, S)
     stop = (vals == OCCUPIED) | (vals == off_map)
-    unknown = vals == UNKNOWN
     # Index of the first stopping sample on each ray (n_steps if none).
     first_stop = _first_true(stop)
-    first_unknown = _first_true(unknown)
-    step = np.arange(n_steps)
-    seen_unknown = unknown & (step[None, None, :] < first_stop[..., None])
-    info = (seen_unknown.reshape(n, -1, n_steps).astype(np.float32) @ area.astype(np.float32)
-            ).sum(axis=1) / (math.pi * params.sensor_range_m ** 2)
-    # Landmark: an occupied cell reached through free cells only (no unknown before it).
+    # The unknown samples before it: each ray's prefix mask is a row of a table of the
+    # n_steps + 1 possible prefixes (a gather of rows, cheaper than comparing every sample
+    # with its ray's first stop).
+    prefix = np.tri(n_steps + 1, n_steps, -1, dtype=bool)           # [f, s]: s < f
+    seen_unknown = prefix.take(first_stop, axis=0)
+    seen_unknown &= vals == UNKNOWN
+    ray_info = seen_unknown.astype(np.float32) @ area.astype(np.float32)      # (C, R)
+    info = ray_info.sum(axis=1) / (math.pi * params.sensor_range_m ** 2)
+    # Landmark: an occupied cell reached through free cells only. The areas are positive,
+    # so a ray saw no unknown before its stop iff its visible unknown area is 0.
     first_val = np.take_along_axis(vals, np.minimum(first_stop, n_steps - 1)[..., None],
                                    axis=2)[..., 0]
-    hit = (first_stop < n_steps) & (first_val == OCCUPIED) & (first_stop < first_unknown)
+    hit = (first_stop < n_steps) & (first_val == OCCUPIED) & (ray_info == 0.0)
     starts = (np.arange(params.loc_sectors) * params.n_rays) // params.loc_sectors
     per_sector = np.logical_or.reduceat(hit, starts, axis=1)             # (C, sectors)
     loc = per_sector.mean(axis=1)
