@@ -138,16 +138,18 @@ def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.n
         # selection (allowed and not reached yet) instead of two saves a pass per level.
         # compress() on the flattened mask is several times faster than boolean indexing,
         # and the methods skip numpy's Python-level function wrappers (~300 levels here).
+        # Every index is in range, so take() runs with mode="wrap": no bounds checks and
+        # no buffered copy (mode "raise" makes one), ~5 % of the search.
         nb = front + offsets
-        new = moves_t.take(allow.take(front), axis=1)
-        new &= steps.take(nb) == np.inf
+        new = moves_t.take(allow.take(front, mode="wrap"), axis=1, mode="wrap")
+        new &= steps.take(nb, mode="wrap") == np.inf
         new = new.ravel()
         nb = nb.compress(new)
         if nb.size == 0:
             break
         # Several parents on this level may reach a block: keep the shortest length.
-        np.minimum.at(steps, nb, (steps.take(front) + _STEP_COL).compress(new))
+        np.minimum.at(steps, nb, (steps.take(front, mode="wrap") + _STEP_COL).compress(new))
         first = order[: nb.size]
         stamp[nb] = first                                     # de-duplicate without sorting
-        front = nb.compress(stamp.take(nb) == first)
+        front = nb.compress(stamp.take(nb, mode="wrap") == first)
     return steps * np.float32(graph.k * resolution)

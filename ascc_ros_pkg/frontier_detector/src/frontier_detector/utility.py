@@ -126,7 +126,7 @@ def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.nd
     side = 2 * half + 1
     local = patches(np.asarray(grid, dtype=np.int8), np.stack([rows, cols], axis=1), half,
                     fill=off_map).reshape(n, side * side)
-    vals = np.take(local, ((dr + half) * side + (dc + half)).ravel(), axis=1
+    vals = np.take(local, ((dr + half) * side + (dc + half)).ravel(), axis=1, mode="wrap"
                    ).reshape(n, dr.shape[0], n_steps)                       # (C, R, S)
     stop = (vals == OCCUPIED) | (vals == off_map)
     # Index of the first stopping sample on each ray (n_steps if none).
