@@ -38,3 +38,23 @@ def test_dilate_rows_equals_cv2_dilate_with_that_kernel(half, monkeypatch):
 def test_dilate_rows_rejects_a_kernel_wider_away_from_the_middle():
     with pytest.raises(ValueError):
         dilate_rows(np.zeros((3, 3), np.uint8), [1, 2])
+
+
+@pytest.mark.parametrize("radius", [0.0, 1.5, 6.0 - 1e-6])
+def test_dilate_disk_stack_equals_cv2_dilate_of_each_image_away_from_its_border(radius):
+    from frontier_detector.morphology import dilate_disk_stack
+    rng = np.random.default_rng(int(radius * 10))
+    m = int(np.ceil(radius))                      # cells next to another image may differ
+    for n, side in [(1, 5), (3, 17), (40, 23)]:
+        stack = ((rng.random((n, side, side)) < 0.05) * 255).astype(np.uint8)
+        got = dilate_disk_stack(stack, radius)
+        assert got.shape == stack.shape and got.dtype == np.uint8
+        for i in range(n):
+            ref = cv2.dilate(stack[i], disk_kernel(radius), borderType=cv2.BORDER_CONSTANT,
+                             borderValue=0)
+            inner = (slice(m, side - m),) * 2
+            assert np.array_equal(got[i][inner], ref[inner]), (n, side, i)
+    one = np.zeros((1, 9, 9), np.uint8)
+    one[0, 4, 4] = 1
+    assert np.array_equal(dilate_disk_stack(one, 2.0)[0],
+                          cv2.dilate(one[0], disk_kernel(2.0)))   # a single image: all of it

@@ -42,7 +42,8 @@ from numpy.lib.stride_tricks import as_strided
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
 from ascc_common.params import param
 
-from .morphology import clear_of, dilate_disk, disk_kernel  # noqa: F401 - disk_kernel
+# disk_kernel is imported from here by ascc_eval.report
+from .morphology import clear_of, dilate_disk, dilate_disk_stack, disk_kernel  # noqa: F401
 from .paths import CoarseGraph, block_size, build_graph, path_lengths
 
 # Outcome of `find_frontiers`; the node publishes it on ~status.
@@ -399,8 +400,8 @@ def place_goals(traversable: np.ndarray, sub: np.ndarray, centroids: np.ndarray,
         near = patches(near_unknown, base, half).reshape(n, side * side)
     else:
         unknown = (patches(sub, base, half) == UNKNOWN).view(np.uint8)    # 0/1
-        near = dilate_disk(unknown.reshape(n * side, side),
-                           max(0.0, radius_cells - 1e-6)).reshape(n, side * side)
+        near = dilate_disk_stack(unknown, max(0.0, radius_cells - 1e-6)
+                                 ).reshape(n, side * side)
     dr, dc = disk_offsets(search_cells)
     k = (dr + half) * side + (dc + half)                     # search disc, nearest first
     # Outside the mask the patches hold 0: not traversable, so never valid.
@@ -467,8 +468,8 @@ def view_goals(sub: np.ndarray, traversable: np.ndarray, reachable, centroids: n
             near = patches(near_unknown, base[todo], half).reshape(m, side * side)
         else:
             unk = (sp == UNKNOWN).view(np.uint8)                   # 0/1
-            near = dilate_disk(unk.reshape(m * side, side),
-                               max(0.0, radius_cells - 1e-6)).reshape(m, side * side)
+            near = dilate_disk_stack(unk, max(0.0, radius_cells - 1e-6)
+                                     ).reshape(m, side * side)
         valid &= near.take(k, axis=1) == 0
         cand = np.nonzero(valid)
         c_r = base[todo[cand[0]], 0] + dr.ravel()[cand[1]]

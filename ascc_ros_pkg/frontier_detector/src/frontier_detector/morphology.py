@@ -47,6 +47,16 @@ def dilate_disk(mask: np.ndarray, radius_cells: float) -> np.ndarray:
     return dilate_rows(mask, disk_half_widths(radius_cells))
 
 
+def dilate_disk_stack(stack: np.ndarray, radius_cells: float) -> np.ndarray:
+    """Dilate each image of an (n, rows, cols) uint8 stack by `disk_kernel(radius_cells)`;
+    cells within the radius of an image's border may also see the neighbouring image's
+    (callers keep such a margin). The images are laid side by side: a few long rows cost
+    OpenCV much less than many short ones (n x rows of them stacked vertically)."""
+    n, rows, cols = stack.shape
+    wide = np.ascontiguousarray(stack.transpose(1, 0, 2)).reshape(rows, n * cols)
+    return dilate_disk(wide, radius_cells).reshape(rows, n, cols).transpose(1, 0, 2)
+
+
 def dilate_rows(mask: np.ndarray, half: List[int]) -> np.ndarray:
     """Dilate a 2-D uint8 mask by the symmetric kernel whose row at offset +-dy spans
     columns -half[dy] .. half[dy]; half must not increase with dy (a disc, a rectangle)."""
