@@ -103,6 +103,11 @@ class RecognizerConfig:
     # 1 - region_quantile quantile of its windows' distances (an ellipse, not a box)
     region_features: Tuple[str, ...] = ()
     region_quantile: float = 0.005
+    # the regions fitted on all of a class's windows ("all") or ("pure") on those wholly
+    # inside one activity (a class without such windows, a transition: all of its own);
+    # each class's distance threshold times region_margin (the spread of new persons)
+    region_fit: str = "all"
+    region_margin: float = 1.0
     seed: int = 0
     classes: Tuple[str, ...] = field(default=ACTIVITIES)
 
@@ -114,6 +119,8 @@ class RecognizerConfig:
         state.setdefault("range_quantile", 0.001)
         state.setdefault("region_features", ())
         state.setdefault("region_quantile", 0.005)
+        state.setdefault("region_fit", "all")
+        state.setdefault("region_margin", 1.0)
         self.__dict__.update(state)
 
     def samples(self) -> Tuple[int, int]:
@@ -174,11 +181,21 @@ def window_labels(labels: Sequence[str], ends: np.ndarray,
     return centre, pure
 
 
-def fit_regions(x: np.ndarray, y: np.ndarray, n_classes: int, quantile: float):
+def pure_fit_mask(y: np.ndarray, pure: np.ndarray) -> np.ndarray:
+    """(n,) bool: the windows a class's region is fitted on with ``region_fit`` "pure":
+    those wholly inside one activity (``pure``) and all windows of a class that has no
+    such window (a transition, shorter than a window)."""
+    pure = np.asarray(pure, dtype=bool)
+    return pure | ~np.isin(y, np.unique(y[pure]))
+
+
+def fit_regions(x: np.ndarray, y: np.ndarray, n_classes: int, quantile: float,
+                margin: float = 1.0):
     """Per class a of ``n_classes``: (mean, precision, threshold) of the windows
-    ``x[y == a]`` (columns: the region's features): the distance threshold is the
-    1 - ``quantile`` quantile of the class's own windows' Mahalanobis distances. A tiny
-    ridge (1e-6 of the mean variance) keeps a flat class's covariance invertible."""
+    ``x[y == a]`` (columns: the region's features): the distance threshold is
+    ``margin`` times the 1 - ``quantile`` quantile of the class's own windows'
+    Mahalanobis distances. A tiny ridge (1e-6 of the mean variance) keeps a flat class's
+    covariance invertible."""
     out = []
     for a in range(n_classes):
         xa = x[y == a]
@@ -188,7 +205,7 @@ def fit_regions(x: np.ndarray, y: np.ndarray, n_classes: int, quantile: float):
             cov.shape[0])
         precision = np.linalg.inv(cov)
         d = mahalanobis(xa, mean, precision)
-        out.append((mean, precision, float(np.quantile(d, 1.0 - quantile))))
+        out.append((mean, precision, margin * float(np.quantile(d, 1.0 - quantile))))
     return out
 
 
@@ -234,8 +251,11 @@ class Recognizer:
         self.config = config
 
     # -- training ---------------------------------------------------------------------
-    def fit(self, sequences: List[Tuple[np.ndarray, np.ndarray]]) -> Recognizer:
-        """``sequences``: (features (n, 12), label indices (n,)) per recording."""
+    def fit(self, sequences: List[Tuple[np.ndarray, np.ndarray]],
+            pure: Optional[Sequence[np.ndarray]] = None) -> Recognizer:
+        """``sequences``: (features (n, 12), label indices (n,)) per recording; ``pure``:
+        per recording (n,) whether each window lies wholly inside one activity (needed
+        by ``region_fit`` "pure")."""
         from hmmlearn.hmm import CategoricalHMM
         from sklearn.cluster import KMeans
         from sklearn.neural_network import MLPClassifier
@@ -278,12 +298,16 @@ class Recognizer:
             self.means.append(mean)
             self.precisions.append(precision)
             self.thresholds.append(float(np.quantile(d, c.unknown_quantile)))
-        return self.fit_ranges(x, y)
+        return self.fit_ranges(x, y, None if pure is None else np.concatenate(
+            [np.asarray(p, dtype=bool) for p in pure]))
 
-    def fit_ranges(self, x: np.ndarray, y: np.ndarray) -> Recognizer:
+    def fit_ranges(self, x: np.ndarray, y: np.ndarray,
+                   pure: Optional[np.ndarray] = None) -> Recognizer:
         """Each class's [q, 1 - q] range (q = ``range_quantile``) of the
         ``range_features`` over its windows ``x[y == class]`` (features as
-        `window_features` gives them)."""
+        `window_features` gives them), and its region (`fit_regions`) on the
+        ``region_features``, from the windows ``region_fit`` names (``pure``: (n,) bool,
+        the windows wholly inside one activity; ValueError if "pure" and not given)."""
         c = self.config
         names = feature_names(c)
         unknown = sorted(set(c.range_features) - set(names))
@@ -298,8 +322,17 @@ class Recognizer:
         if unknown:
             raise ValueError("region_features %s: not among %s" % (unknown, names))
         self.region_index = [names.index(n) for n in region]
-        self.regions = fit_regions(x[:, self.region_index], y, len(c.classes),
-                                   c.region_quantile) if self.region_index else []
+        fit = getattr(c, "region_fit", "all")
+        if fit not in ("all", "pure"):
+            raise ValueError("region_fit %r: 'all' or 'pure'" % (fit,))
+        keep = np.ones(len(y), dtype=bool)
+        if fit == "pure" and self.region_index:
+            if pure is None or len(pure) != len(y):
+                raise ValueError("region_fit 'pure' needs the pure mask of the windows")
+            keep = pure_fit_mask(y, pure)
+        self.regions = fit_regions(x[keep][:, self.region_index], y[keep], len(c.classes),
+                                   c.region_quantile, getattr(c, "region_margin", 1.0)
+                                   ) if self.region_index else []
         return self
 
     _mahalanobis = staticmethod(mahalanobis)
