@@ -19,7 +19,13 @@ With ``--pairs``: pairs of the gait's features (`GAIT`) and a triple, each as a 
 (``region_features``: the class's Mahalanobis distance on just those features), with
 the same rule.
 
-    python ascc_ros_pkg/semantic_mapping/scripts/cv_gait.py [--pairs] [--quantiles ...]
+With ``--triples``: the pair of swing and lean (`PAIR`) alone and with one feature of
+the waist's bounce (`BOUNCE`); ``--margins``: each region's threshold times each margin;
+``--fit both``: regions fitted on all of a class's windows and on its whole-activity
+windows. The rule as above; a tie: the smaller worst extra loss, then the first.
+
+    python ascc_ros_pkg/semantic_mapping/scripts/cv_gait.py [--pairs | --triples]
+        [--quantiles ...] [--margins ...] [--fit all|pure|both]
 """
 import argparse
 import itertools

@@ -36,11 +36,16 @@ windows of the class the network takes it for (a window taken for walking must s
 thigh as much as some training person walked). With ``region_features`` the same holds
 for a region instead of a box: the class's Mahalanobis distance on just those features
 (its own covariance; a 1e-6 relative ridge only to invert it) within the
-1 - ``region_quantile`` quantile of its windows' distances. `scripts/cv_gait.py --pairs`
-chose, over the training persons, the thigh's swing and the waist's lean
-(``thigh_dvar_z``, ``waist_mean_z``: carrying is a smaller gait *and* the trunk leant
-back) and q 0.0025 as a region; `train_activity` trains with them by default (and no
-range features).
+1 - ``region_quantile`` quantile of its windows' distances, times ``region_margin``.
+``region_fit`` "pure" fits each class's region on its windows wholly inside one activity
+only: the windows that straddle a walk and a door (labelled by their centre) hold a gait,
+and fitted on them the door's and standing's regions held carrying's gait too.
+`scripts/cv_gait.py --triples --fit both --margins ...` chose, over the training persons,
+the thigh's swing, the waist's lean and its fore-aft bounce (``thigh_dvar_z``,
+``waist_mean_z``, ``waist_var_z``: carrying is a smaller gait *and* the trunk leant back),
+q 0.0005, "pure" and margin 2 (the whole-activity windows of a few persons span less
+than a new person's lean and gait); `train_activity` trains with them by default (and
+no range features). A model saved before ``region_fit`` loads as "all", margin 1.
 
 Sensors asleep (the power scheme of 5.4.1) send nothing: the node holds a sleeping
 sensor's last sample, and the training recordings are made the same way (`training`).
