@@ -249,6 +249,8 @@ def test_the_pure_fitted_region_with_a_margin_and_the_node_path():
         _refit(rec, cfg, x, y, region_features=feats3, region_fit="pure")
     with pytest.raises(ValueError, match="region_fit"):
         _refit(rec, cfg, x, y, p, region_features=feats3, region_fit="some")
+    with pytest.raises(ValueError, match="region_margin"):
+        _refit(rec, cfg, x, y, p, region_features=feats3, region_margin=0.0)
 
 
 def test_a_model_saved_before_the_region_loads_without_one(trained):

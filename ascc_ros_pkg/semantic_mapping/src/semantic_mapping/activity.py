@@ -330,14 +330,16 @@ class Recognizer:
         fit = getattr(c, "region_fit", "all")
         if fit not in ("all", "pure"):
             raise ValueError("region_fit %r: 'all' or 'pure'" % (fit,))
+        margin = getattr(c, "region_margin", 1.0)
+        if not margin > 0.0:
+            raise ValueError("region_margin %r: must be > 0" % (margin,))
         keep = np.ones(len(y), dtype=bool)
         if fit == "pure" and self.region_index:
             if pure is None or len(pure) != len(y):
                 raise ValueError("region_fit 'pure' needs the pure mask of the windows")
             keep = pure_fit_mask(y, pure)
         self.regions = fit_regions(x[keep][:, self.region_index], y[keep], len(c.classes),
-                                   c.region_quantile, getattr(c, "region_margin", 1.0)
-                                   ) if self.region_index else []
+                                   c.region_quantile, margin) if self.region_index else []
         return self
 
     _mahalanobis = staticmethod(mahalanobis)
