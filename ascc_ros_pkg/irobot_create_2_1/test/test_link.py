@@ -1,4 +1,5 @@
 """SerialLink against a real pseudo-terminal: open, read, write, loss and reopen."""
+import contextlib
 import os
 import time
 import tty
@@ -20,11 +21,22 @@ def make_pty():
     return master, slave, os.ttyname(slave)
 
 
-def test_read_write_through_pty():
+@contextlib.contextmanager
+def open_link(**kwargs):
+    """(master fd, open SerialLink on the slave) of a new pty; everything closed after."""
     master, slave, path = make_pty()
+    link = SerialLink(path, **kwargs)
     try:
-        link = SerialLink(path, read_timeout_s=0.2)
         assert link.ensure_open()
+        yield master, link
+    finally:
+        link.close()
+        os.close(master)
+        os.close(slave)
+
+
+def test_read_write_through_pty():
+    with open_link(read_timeout_s=0.2) as (master, link):
         assert link.write(b"\x80\x83")
         assert os.read(master, 16) == b"\x80\x83"
         os.write(master, b"hello")
@@ -34,10 +46,6 @@ def test_read_write_through_pty():
             if len(got) >= 5:
                 break
         assert got == b"hello"
-        link.close()
-    finally:
-        os.close(master)
-        os.close(slave)
 
 
 def test_missing_port_backs_off_and_recovers(tmp_path):
@@ -85,27 +93,17 @@ def test_a_port_closed_under_a_write_is_a_failure_not_a_crash():
     """pyserial raises TypeError from write() when the port is closed in another thread
     (seen at shutdown: the driver's last zero command after the simulator's pty went);
     the race is not reproducible, so the serial object's write raises it here."""
-    master, slave, path = make_pty()
-    try:
-        link = SerialLink(path, read_timeout_s=0.05)
-        assert link.ensure_open()
-
+    with open_link(read_timeout_s=0.05) as (master, link):
         def closed_under_us(_data):
             raise TypeError("'NoneType' object cannot be interpreted as an integer")
 
         link._ser.write = closed_under_us
         assert link.write(b"\x89") is False
         assert not link.is_open and link.failures >= 1
-    finally:
-        os.close(master)
-        os.close(slave)
 
 
 def test_read_waits_for_min_bytes_within_the_timeout():
-    master, slave, path = make_pty()
-    try:
-        link = SerialLink(path, read_timeout_s=0.5)
-        assert link.ensure_open()
+    with open_link(read_timeout_s=0.5) as (master, link):
         os.write(master, b"abc")
         got = [link.read(min_bytes=6)]
         os.write(master, b"def")              # arrives after the first read timed out
@@ -113,19 +111,12 @@ def test_read_waits_for_min_bytes_within_the_timeout():
         assert got == [b"abc", b"def"]        # the timeout returns what came
         os.write(master, b"0123456789")
         assert link.read(max_bytes=4, min_bytes=8) == b"0123"  # never more than max
-        link.close()
-    finally:
-        os.close(master)
-        os.close(slave)
 
 
 def test_read_paced_sleeps_for_the_missing_bytes_and_returns_all_that_waits():
     """A stream at 1000 bytes/s: asking for 8 bytes with 3 waiting sleeps 5 ms (+ the
     margin), once, and returns everything buffered by then, not only 8 bytes."""
-    master, slave, path = make_pty()
-    try:
-        link = SerialLink(path, read_timeout_s=0.5)
-        assert link.ensure_open()
+    with open_link(read_timeout_s=0.5) as (master, link):
         os.write(master, b"abc")
         time.sleep(0.01)
         naps = []
@@ -141,27 +132,16 @@ def test_read_paced_sleeps_for_the_missing_bytes_and_returns_all_that_waits():
         time.sleep(0.01)
         assert link.read_paced(4, 1000.0, max_bytes=6, sleep=sleep) == b"012345"
         assert len(naps) == 1  # enough was waiting: no sleep
-        link.close()
-    finally:
-        os.close(master)
-        os.close(slave)
 
 
 def test_read_paced_returns_what_came_within_the_timeout():
-    master, slave, path = make_pty()
-    try:
-        link = SerialLink(path, read_timeout_s=0.05)
-        assert link.ensure_open()
+    with open_link(read_timeout_s=0.05) as (master, link):
         os.write(master, b"ab")
         t0 = time.monotonic()
         assert link.read_paced(10, 1e4) == b"ab"  # never comes: the timeout ends it
         assert 0.04 < time.monotonic() - t0 < 0.5
         assert link.read_paced(10, 1e4) == b""  # nothing at all: b'' after read()
         assert link.is_open
-        link.close()
-    finally:
-        os.close(master)
-        os.close(slave)
 
 
 def test_read_paced_finds_a_device_that_hung_up():
@@ -181,11 +161,8 @@ def test_read_paced_follows_a_stream_faster_than_its_nominal_rate():
     """A simulated robot at 4x real time sends 4000 bytes/s where 1000 are nominal: after
     two reads the pacing sleeps a quarter as long (it would otherwise hold back the
     watchdog and the commands, which run once per read)."""
-    master, slave, path = make_pty()
-    try:
-        clock = FakeClock()
-        link = SerialLink(path, read_timeout_s=0.5, clock=clock)
-        assert link.ensure_open()
+    clock = FakeClock()
+    with open_link(read_timeout_s=0.5, clock=clock) as (master, link):
         naps = []
 
         def sleep(s):
@@ -198,7 +175,3 @@ def test_read_paced_follows_a_stream_faster_than_its_nominal_rate():
         assert got[0] == got[1] == 164  # 41 ms of the stream each
         assert abs(naps[0] - 0.041) < 1e-9 and abs(naps[1] - 0.041) < 1e-9
         assert abs(naps[2] - (40 / 4000.0 + PACE_MARGIN_S)) < 1e-9
-        link.close()
-    finally:
-        os.close(master)
-        os.close(slave)

@@ -168,6 +168,18 @@ def test_the_gait_range_reports_a_smaller_gait_unknown(trained):
         _refit(rec, cfg, x, y, range_features=("thigh_swing",))
 
 
+def _assert_walk_then_carrying_online_as_batch(rec, cfg, seed):
+    """Person ``seed`` walks, then carries: the online recognizer (the node's path) gives
+    the batch's labels, which hold walking and unknown."""
+    data = render([("walking", 8.0), ("carrying", 12.0)], Person.from_seed(seed))
+    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
+    labels, _ = rec.recognize(feats)
+    online = OnlineRecognizer(rec)
+    got = [r[0] for r in (online.push(w, t) for w, t in zip(data["waist_accel"],
+                                                          data["thigh_accel"])) if r]
+    assert got == labels and UNKNOWN in labels and "walking" in labels
+
+
 def test_the_gait_region_reports_carrying_unknown_and_the_node_path_gets_it(trained):
     """The region (the thigh's swing and the waist's lean as an ellipse per class,
     cv_gait.py --pairs' choice) on the fixture's recognizer: carrying (0.6 of the gait,
@@ -183,13 +195,7 @@ def test_the_gait_region_reports_carrying_unknown_and_the_node_path_gets_it(trai
     assert np.mean(lost["carrying"]) > 0.2
     for activity in ("walking", "standing", "opening_door"):
         assert max(lost[activity]) < 0.05, activity
-    data = render([("walking", 8.0), ("carrying", 12.0)], Person.from_seed(101))
-    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
-    labels, _ = region.recognize(feats)
-    online = OnlineRecognizer(region)
-    got = [r[0] for r in (online.push(w, t) for w, t in zip(data["waist_accel"],
-                                                          data["thigh_accel"])) if r]
-    assert got == labels and UNKNOWN in labels and "walking" in labels
+    _assert_walk_then_carrying_online_as_batch(region, cfg, 101)
     with pytest.raises(ValueError, match="region_features"):
         _refit(rec, cfg, x, y, region_features=("thigh_swing",))
 
@@ -238,13 +244,7 @@ def test_the_pure_fitted_region_with_a_margin_and_the_node_path():
     assert np.mean(lost_whole["carrying"]) > np.mean(lost_every["carrying"]) + 0.1
     for activity in ("walking", "standing", "opening_door"):
         assert max(lost_whole[activity]) < 0.05, activity
-    data = render([("walking", 8.0), ("carrying", 12.0)], Person.from_seed(102))
-    feats, _ = window_features(data["waist_accel"], data["thigh_accel"], cfg)
-    labels, _ = whole.recognize(feats)
-    online = OnlineRecognizer(whole)
-    got = [r[0] for r in (online.push(w, t) for w, t in zip(data["waist_accel"],
-                                                          data["thigh_accel"])) if r]
-    assert got == labels and UNKNOWN in labels and "walking" in labels
+    _assert_walk_then_carrying_online_as_batch(whole, cfg, 102)
     with pytest.raises(ValueError, match="pure"):
         _refit(rec, cfg, x, y, region_features=feats3, region_fit="pure")
     with pytest.raises(ValueError, match="region_fit"):
