@@ -170,6 +170,9 @@ class MapperTest(unittest.TestCase):
         served = rospy.ServiceProxy("dynamic_map", GetMap)(GetMap._request_class()).map
         self.assertEqual((served.info.width, served.info.height),
                          (msg.info.width, msg.info.height))
+        served_grid, _ = map_from_msg(served)   # checks the cell count
+        self.assertTrue(set(np.unique(served_grid).tolist()) <= {-1, 0, 100})
+        self.assertGreater(int((served_grid >= 0).sum()), 5000)
         self.assertGreater(entropies, 10)
         h = self.entropy.msg.data
         self.assertTrue(0.0 <= h <= math.log(30) + 1e-6, h)

@@ -13,11 +13,13 @@ import threading
 import time
 from collections import deque
 
+import numpy as np
 import rospy
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import MapMetaData, OccupancyGrid
 from nav_msgs.srv import GetMap, GetMapResponse
+from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 
@@ -47,7 +49,7 @@ class SlamMapperNode:
         self.tf_wait = rospy.Duration(p.tf_wait_s)
         self.lock = threading.Lock()
         self.scans = deque(maxlen=SCAN_BUFFER)  # newest unprocessed scans, oldest first
-        self.map_msg = None          # last published map (for dynamic_map)
+        self.map_msg = None          # last published map (numpy_msg; for dynamic_map)
         self.map_dirty = False
         self.last_map_time = None
         self.map_to_odom = (0.0, 0.0, 0.0)
@@ -56,7 +58,11 @@ class SlamMapperNode:
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(30.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.tf_broadcaster = tf2_ros.TransformBroadcaster()
-        self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
+        # numpy_msg: the grid is serialized from its int8 array in one write; the plain
+        # class packs a Python list of every cell (a million-cell map: tens of ms a time).
+        # Same type and md5: subscribers see a nav_msgs/OccupancyGrid.
+        self.map_pub = rospy.Publisher("map", numpy_msg(OccupancyGrid), queue_size=1,
+                                       latch=True)
         self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
         self.entropy_pub = rospy.Publisher("~entropy", Float64, queue_size=5)
         self.service = rospy.Service("dynamic_map", GetMap, self.on_get_map)
@@ -79,7 +85,11 @@ class SlamMapperNode:
             msg = self.map_msg
         if msg is None:
             raise rospy.ServiceException("no map yet: no scan has been processed")
-        return GetMapResponse(map=msg)
+        # The service's serializer packs a sequence of ints: give it the list (only here,
+        # not on every publication).
+        out = OccupancyGrid(header=msg.header, info=msg.info,
+                            data=grid_to_msg_data(msg.data))
+        return GetMapResponse(map=out)
 
     def on_publish_tf(self, _event):
         stamp = rospy.Time.now() + self.tf_delay
@@ -199,11 +209,11 @@ class SlamMapperNode:
         meta.origin.position.x = info.origin_x
         meta.origin.position.y = info.origin_y
         meta.origin.orientation.w = 1.0
-        msg = OccupancyGrid()
+        msg = numpy_msg(OccupancyGrid)()
         msg.header.stamp = now
         msg.header.frame_id = self.map_frame
         msg.info = meta
-        msg.data = grid_to_msg_data(grid)
+        msg.data = np.ascontiguousarray(grid, dtype=np.int8).ravel()
         self.map_pub.publish(msg)
         self.meta_pub.publish(meta)
         with self.lock:
