@@ -244,6 +244,24 @@ def test_counts_once_per_scan_and_saturate_without_changing_the_map():
     assert np.array_equal(maps.occupancy(0, 0.25), first)
 
 
+def test_resampling_gives_each_particle_the_map_it_drew():
+    # In place for sorted indices (systematic resampling), by a copy otherwise: the same
+    # maps as a fancy-indexed copy of the stack, for draws that shift slots both ways.
+    rng = np.random.default_rng(3)
+    n = 12
+    for trial in range(40):
+        maps = R.ParticleMaps(n, GridInfo.from_bounds(0.05, 0.0, 0.0, 0.5, 0.4))
+        maps.hits[:] = rng.integers(0, 255, maps.hits.shape, dtype=np.uint8)
+        maps.visits[:] = rng.integers(0, 255, maps.visits.shape, dtype=np.uint8)
+        weights = rng.dirichlet(np.full(n, 0.3))
+        idx = R.low_variance_resample(weights, rng)
+        if trial % 4 == 3:
+            idx = rng.permutation(idx)             # not sorted: the copying path
+        want_h, want_v = maps.hits[idx].copy(), maps.visits[idx].copy()
+        maps.select(idx)
+        assert np.array_equal(maps.hits, want_h) and np.array_equal(maps.visits, want_v)
+
+
 def test_map_grows_and_keeps_content_in_place():
     maps = R.ParticleMaps(2, GridInfo.from_bounds(0.05, 0.0, 0.0, 2.0, 2.0))
     maps.hits[1, 10, 20] = 3

@@ -296,9 +296,25 @@ class ParticleMaps:
         return self.hits.shape[0]
 
     def select(self, idx: np.ndarray) -> None:
-        """Resampling: particle i takes the map of particle idx[i] (copies)."""
-        self.hits = self.hits[idx]
-        self.visits = self.visits[idx]
+        """Resampling: particle i takes the map of particle idx[i] (copies).
+
+        For sorted ``idx`` (systematic resampling) the maps are copied in place, only where
+        idx[i] != i: slots taking a map from below are filled from the top down, those
+        taking one from above from the bottom up, so no slot is read after it was written
+        (sorted: a slot read from below is never written from above and vice versa). A
+        fancy-indexed copy of the whole stack allocates it anew at every resampling (page
+        faults: ~5x the time on a corridor-sized map).
+        """
+        idx = np.asarray(idx, dtype=np.intp)
+        if idx.shape != (self.n,) or np.any(idx[1:] < idx[:-1]):
+            self.hits = self.hits[idx]
+            self.visits = self.visits[idx]
+            return
+        slots = np.arange(self.n)
+        order = np.concatenate((np.nonzero(idx < slots)[0][::-1], np.nonzero(idx > slots)[0]))
+        for i in order.tolist():
+            self.hits[i] = self.hits[idx[i]]
+            self.visits[i] = self.visits[idx[i]]
 
     def occupancy(self, p: int, occ_thresh: float) -> np.ndarray:
         """-1/0/100 grid of particle p."""
