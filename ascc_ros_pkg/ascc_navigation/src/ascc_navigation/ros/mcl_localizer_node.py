@@ -24,6 +24,7 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty, EmptyResponse
 
 from ascc_common.grid import map_from_msg
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import mcl
@@ -83,7 +84,9 @@ class MclLocalizerNode:
                          queue_size=1)
         rospy.Service("global_localization", Empty, self.on_global_localization)
         rospy.Service("request_nomotion_update", Empty, self.on_nomotion_update)
-        self.timer = rospy.Timer(rospy.Duration(p.process_period_s), self.on_timer, reset=True)
+        # not a rospy.Timer: under simulated time that wakes on every /clock message
+        self.timer = PacedTimer(p.process_period_s, lambda: self.on_timer(None),
+                                rospy.get_time, rospy.is_shutdown, name="filter")
 
     # -- callbacks: store the newest input -----------------------------------------------
     def on_scan(self, msg):

@@ -32,6 +32,7 @@ from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
 
 from ascc_common.grid import map_from_msg
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import compose, quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import navigation as nav
@@ -98,7 +99,10 @@ class NavigatorNode:
         self.server = GoalServer("move_base", MoveBaseAction, auto_start=False)
         self.server.start()
         self._status_timer_with_reset()
-        self.timer = rospy.Timer(rospy.Duration(self.period), self.on_timer, reset=True)
+        # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
+        # message (ascc_common.paced_timer)
+        self.timer = PacedTimer(self.period, lambda: self.on_timer(None), rospy.get_time,
+                                rospy.is_shutdown, name="controller")
         rospy.on_shutdown(self.stop_robot)
 
     # -- callbacks: store the newest input -----------------------------------------------
@@ -162,14 +166,16 @@ class NavigatorNode:
     def _status_timer_with_reset(self):
         """actionlib's status timer is a rospy.Timer without reset: when the clock goes back
         (a bag loop, a restarted simulator) it dies with a ROSTimeMovedBackwardsException
-        traceback, and move_base/status then comes with goal transitions only. Replace it by
-        the same timer with reset=True, which survives the jump."""
+        traceback, and move_base/status then comes with goal transitions only; under
+        simulated time it also wakes on every /clock message. Replace it by a PacedTimer of
+        the same period, which survives the jump (and has actionlib's shutdown())."""
         server = self.server.action_server
         with server.lock:
             old = server.status_timer
             if old is not None:
-                server.status_timer = rospy.Timer(old._period, server.publish_status_async,
-                                                 reset=True)
+                server.status_timer = PacedTimer(
+                    old._period.to_sec(), lambda: server.publish_status_async(None),
+                    rospy.get_time, rospy.is_shutdown, name="move_base_status")
         if old is not None:
             old.shutdown()
 

@@ -24,6 +24,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 
 from ascc_common.grid import grid_to_msg_data
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import mapper as M
@@ -66,14 +67,16 @@ class SlamMapperNode:
         self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
         self.entropy_pub = rospy.Publisher("~entropy", Float64, queue_size=5)
         self.service = rospy.Service("dynamic_map", GetMap, self.on_get_map)
-        rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
-        self.timers = [
-            rospy.Timer(rospy.Duration(p.process_period_s),
-                        self.on_process, reset=True),
-        ]
+        # numpy_msg: the ranges arrive as one array, not a tuple of Python floats
+        rospy.Subscriber("scan", numpy_msg(LaserScan), self.on_scan, queue_size=1)
+        # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
+        # message (ascc_common.paced_timer)
+        self.timers = [PacedTimer(p.process_period_s, lambda: self.on_process(None),
+                                  rospy.get_time, rospy.is_shutdown, name="process")]
         if tf_period > 0.0:
-            self.timers.append(rospy.Timer(rospy.Duration(tf_period), self.on_publish_tf,
-                                           reset=True))
+            self.timers.append(PacedTimer(tf_period, lambda: self.on_publish_tf(None),
+                                          rospy.get_time, rospy.is_shutdown,
+                                          name="map_to_odom"))
 
     # -- callbacks -------------------------------------------------------------------
     def on_scan(self, msg):

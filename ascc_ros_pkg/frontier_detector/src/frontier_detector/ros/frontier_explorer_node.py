@@ -8,7 +8,6 @@ Callbacks only store the newest message; the planning runs on a timer.
 
 import functools
 import threading
-import time
 
 import actionlib
 import rospy
@@ -22,6 +21,7 @@ from std_msgs.msg import Float64, String
 from std_srvs.srv import Trigger, TriggerResponse
 from visualization_msgs.msg import MarkerArray
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from frontier_detector import explorer as ex
 from frontier_detector.rosmsg import goal_pose, grid_from_msg, plan_markers
@@ -30,7 +30,6 @@ _OUTCOMES = {GoalStatus.SUCCEEDED: ex.SUCCEEDED, GoalStatus.ABORTED: ex.ABORTED,
              GoalStatus.REJECTED: ex.REJECTED, GoalStatus.PREEMPTED: ex.PREEMPTED,
              GoalStatus.RECALLED: ex.PREEMPTED}
 PROBLEM_WARN_PERIOD_S = 10.0   # each problem status is warned about at most this often
-TICK_POLL_S = 0.05             # [s wall] how often the planning loop looks at the clock
 _PROBLEMS = (ex.WAITING_MAP, ex.WAITING_POSE, ex.WAITING_MOVE_BASE, "empty_map",
              "robot_outside_map", "robot_not_in_free_space")
 
@@ -70,27 +69,17 @@ class ExplorerNode:
         if p.autostart:
             self.ctrl.start()
         self.period = period
-        self.thread = threading.Thread(target=self._loop, name="planning", daemon=True)
-        self.thread.start()
+        # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
+        # message (ascc_common.paced_timer); a clock that went back restarts it
+        self.timer = PacedTimer(period, self._tick_guarded, rospy.get_time, rospy.is_shutdown,
+                                name="planning")
 
-    def _loop(self):
-        """_tick every ``period`` [s, ROS time]. Not a rospy.Timer: under simulated time
-        that wakes on every /clock message (100 per simulated second); this loop looks
-        at the clock every TICK_POLL_S of wall time. A clock that went back restarts."""
-        due = None
-        while not rospy.is_shutdown():
-            try:
-                now = rospy.get_time()
-            except rospy.ROSException:
-                return  # shutting down
-            if now > 0.0 and (due is None or now >= due or now < due - 2.0 * self.period):
-                due = now + self.period
-                try:
-                    self._tick(None)
-                except Exception as exc:  # noqa: BLE001 - the loop must survive
-                    rospy.logerr_throttle(10.0, "frontier_explorer: planning failed: %s: %s"
-                                          % (type(exc).__name__, exc))
-            time.sleep(TICK_POLL_S)
+    def _tick_guarded(self):
+        try:
+            self._tick(None)
+        except Exception as exc:  # noqa: BLE001 - the loop must survive
+            rospy.logerr_throttle(10.0, "frontier_explorer: planning failed: %s: %s"
+                                  % (type(exc).__name__, exc))
 
     # -- callbacks: store only -------------------------------------------------------
     def _on_map(self, msg):
