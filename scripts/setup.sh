@@ -24,6 +24,7 @@ APT_PACKAGES=(
   ros-robot-state-publisher libdiagnostic-aggregator-dev libdiagnostic-aggregator-tools
   liburdfdom-tools rviz python3-pyqt5
   python3-tornado python3-selenium chromium chromium-driver
+  python3-numba
 )
 # rviz headless: a virtual X server and ImageMagick's `import` (scripts/rviz_screenshot.sh)
 [ "${1:-}" = "--screenshots" ] && APT_PACKAGES+=(xvfb imagemagick)

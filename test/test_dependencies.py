@@ -24,6 +24,7 @@ PYTHON_KEYS = {"numpy": "python3-numpy", "cv2": "python3-opencv", "yaml": "pytho
                "rosbags": "python3-rosbags-pip", "rospkg": "python3-rospkg",
                "scipy": "python3-scipy", "sklearn": "python3-sklearn",
                "hmmlearn": "python3-hmmlearn-pip", "joblib": "python3-joblib",
+               "numba": "python3-numba",
                "PyQt5": "python3-pyqt5",
                "tornado": "python3-tornado", "selenium": "python3-selenium",
                # a ROS package that Debian ships without its package.xml

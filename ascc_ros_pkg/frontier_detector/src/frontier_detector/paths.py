@@ -9,8 +9,8 @@ k x k cells:
 k is kept below 2 r / (resolution * sqrt(2)) (r = clearance radius): two traversable cells of
 one block are then closer than 2 r, so they cannot lie on both sides of a wall, and a coarse
 path never cuts through an obstacle. Lengths come from a breadth-first search over the
-blocks (8-connected, level by level, vectorised over each level's front); among the
-fewest-step paths the shortest (straight 1, diagonal sqrt 2) is kept, which is the octile
+blocks (8-connected, level by level, compiled by numba); among the fewest-step paths the
+shortest (straight 1, diagonal sqrt 2, summed in float32) is kept, which is the octile
 distance in open space. Result in metres; unreachable blocks are +inf. No ROS import.
 """
 
@@ -22,6 +22,7 @@ from typing import Tuple
 
 import cv2
 import numpy as np
+from numba import njit
 
 # Public (ascc_eval.offline walks the same graph): DR, DC are the row and column steps of
 # the 8 moves, in the order of the allow bits: E, W, S, N, SE, SW, NE, NW, where E/W = col
@@ -32,8 +33,6 @@ _STEP = np.array([1.0, 1.0, 1.0, 1.0, math.sqrt(2), math.sqrt(2), math.sqrt(2), 
                  dtype=np.float32)
 # MOVES[allow byte] -> the 8 booleans of its bits (move d allowed), shape (256, 8).
 MOVES = ((np.arange(256)[:, None] >> np.arange(8)[None, :]) & 1).astype(bool)
-_MOVES_T = np.ascontiguousarray(MOVES.T)
-_STEP_COL = _STEP[:, None]
 
 
 def block_size(resolution: float, clearance_m: float, path_resolution_m: float) -> int:
@@ -121,35 +120,51 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
 def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.ndarray:
     """Path length [m] from start_node's block to every block (flat, padded); inf if none.
 
-    The start block is taken as passable (the caller checked the robot's cell).
+    The start block is taken as passable (the caller checked the robot's cell). The first
+    call in a process loads the compiled search from numba's cache (or compiles it once,
+    ~1 s, when the cache is missing or stale).
     """
-    n = graph.allow.size
-    allow = graph.allow
-    steps = np.full(n, np.inf, dtype=np.float32)
-    offsets = (DR * graph.shape[1] + DC).astype(np.intp)[:, None]
-    stamp = np.zeros(n, dtype=np.int32)
-    order = np.arange(n, dtype=np.int32)
-    steps[start_node] = 0.0
-    front = np.array([start_node], dtype=np.intp)
-    moves_t = _MOVES_T
-    while True:
-        # Moves as (8, F): the selections below then run over contiguous rows. The front
-        # never holds a padding block, so all 8 neighbours are inside the array; one
-        # selection (allowed and not reached yet) instead of two saves a pass per level.
-        # compress() on the flattened mask is several times faster than boolean indexing,
-        # and the methods skip numpy's Python-level function wrappers (~300 levels here).
-        # Every index is in range, so take() runs with mode="wrap": no bounds checks and
-        # no buffered copy (mode "raise" makes one), ~5 % of the search.
-        nb = front + offsets
-        new = moves_t.take(allow.take(front, mode="wrap"), axis=1, mode="wrap")
-        new &= steps.take(nb, mode="wrap") == np.inf
-        new = new.ravel()
-        nb = nb.compress(new)
-        if nb.size == 0:
-            break
-        # Several parents on this level may reach a block: keep the shortest length.
-        np.minimum.at(steps, nb, (steps.take(front, mode="wrap") + _STEP_COL).compress(new))
-        first = order[: nb.size]
-        stamp[nb] = first                                     # de-duplicate without sorting
-        front = nb.compress(stamp.take(nb, mode="wrap") == first)
+    offsets = (DR * graph.shape[1] + DC).astype(np.int64)
+    steps = _bfs_steps(graph.allow, np.int64(start_node), offsets, _STEP)
     return steps * np.float32(graph.k * resolution)
+
+
+@njit(cache=True, nogil=True)
+def _bfs_steps(allow, start, offsets, step):
+    """Breadth-first search over the flat padded blocks: for every block, the shortest
+    float32 sum of move lengths among its fewest-step paths (+inf if unreachable).
+
+    One plain FIFO queue: the blocks of level L are popped before any of level L + 1, and a
+    block found on level L + 1 keeps the smallest sum over all its level-L parents, so the
+    result does not depend on the order within a level. Only inner blocks carry moves (the
+    padding allows none), so every neighbour index is inside the array.
+    """
+    n = allow.size
+    steps = np.full(n, np.inf, dtype=np.float32)
+    level = np.zeros(n, dtype=np.int32)
+    queue = np.empty(n, dtype=np.int64)
+    steps[start] = np.float32(0.0)
+    level[start] = 1
+    queue[0] = start
+    head, tail = 0, 1
+    while head < tail:
+        node = queue[head]
+        head += 1
+        bits = allow[node]
+        if bits == 0:
+            continue
+        here = steps[node]
+        nxt = level[node] + 1
+        for d in range(8):
+            if (bits >> d) & 1:
+                nb = node + offsets[d]
+                cand = here + step[d]
+                lv = level[nb]
+                if lv == 0:
+                    level[nb] = nxt
+                    steps[nb] = cand
+                    queue[tail] = nb
+                    tail += 1
+                elif lv == nxt and cand < steps[nb]:
+                    steps[nb] = cand
+    return steps
