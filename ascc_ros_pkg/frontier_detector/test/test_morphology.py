@@ -58,3 +58,19 @@ def test_dilate_disk_stack_equals_cv2_dilate_of_each_image_away_from_its_border(
     one[0, 4, 4] = 1
     assert np.array_equal(dilate_disk_stack(one, 2.0)[0],
                           cv2.dilate(one[0], disk_kernel(2.0)))   # a single image: all of it
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.5, 1.0, 2.5, 6.0 - 1e-6, 7.3])
+def test_clear_of_equals_keep_minus_cv2_dilated_obstacles(radius):
+    """The compiled sweep against OpenCV, on whole images and on windows of a larger one
+    (rows not contiguous with each other), including images thinner than the disc."""
+    from frontier_detector.morphology import clear_of
+    rng = np.random.default_rng(int(radius * 10))
+    big = rng.choice(np.array([0, 100, -1], np.int8), size=(90, 97), p=[0.7, 0.05, 0.25])
+    for image in (big, big[5:66, 3:80], big[:1, :], big[:, 10:11], big[40:43, 2:6]):
+        u8 = image.view(np.uint8)
+        dilated = cv2.dilate((u8 == 100).astype(np.uint8), disk_kernel(radius),
+                             borderType=cv2.BORDER_CONSTANT, borderValue=0)
+        ref = ((u8 == 0) & (dilated == 0)).astype(np.uint8) * 255
+        got = clear_of(image, 0, 100, radius)
+        assert got.dtype == np.uint8 and np.array_equal(got, ref), (radius, image.shape)

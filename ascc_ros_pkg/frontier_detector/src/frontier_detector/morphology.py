@@ -12,6 +12,10 @@ strip (`STRIP_CELLS` output cells at a time), so the intermediate images stay in
   of the widest half-width are one vertical running maximum, the others two shifted
   maxima each.
 
+`clear_of` (the traversable mask, the largest of these) is compiled instead (numba): one
+sweep over the image's rows, the rows' horizontal maxima kept in a ring of 2 r + 1 rows,
+so the image is read once and the mask written once.
+
 Outside the image counts as 0 (`cv2.BORDER_CONSTANT`), as in `cv2.dilate`; the results
 equal `cv2.dilate` with the same kernel (tests compare them). Rectangles alone are better
 left to `cv2.dilate`, which separates them.
@@ -24,6 +28,7 @@ from typing import Callable, Dict, List, Tuple
 
 import cv2
 import numpy as np
+from numba import njit
 
 STRIP_CELLS = 720_000              # output cells per strip (256 rows of a 2820-cell window)
 
@@ -76,21 +81,90 @@ def dilate_rows(mask: np.ndarray, half: List[int]) -> np.ndarray:
 def clear_of(image: np.ndarray, keep_value: int, obstacle_value: int,
              radius_cells: float) -> np.ndarray:
     """uint8 mask, 255 where image == keep_value and no cell == obstacle_value lies within
-    `disk_kernel(radius_cells)` (outside the image: no obstacle). One strip-wise sweep:
-    neither the obstacle mask nor its dilation is ever held at full size."""
+    `disk_kernel(radius_cells)` (outside the image: no obstacle). One compiled sweep over
+    the rows: neither the obstacle mask nor its dilation is ever held at full size."""
     u8 = image.view(np.uint8) if image.dtype != np.uint8 else image
-    out = np.empty(u8.shape, np.uint8)
-
-    def load(a0: int, a1: int, dst: np.ndarray) -> None:
-        cv2.compare(u8[a0:a1], obstacle_value & 0xFF, cv2.CMP_EQ, dst=dst)
-
-    def emit(y0: int, y1: int, dilated: np.ndarray) -> None:
-        o = out[y0:y1]
-        cv2.compare(u8[y0:y1], keep_value & 0xFF, cv2.CMP_EQ, dst=o)
-        cv2.subtract(o, dilated, dst=o)                   # 255 - 255 saturates to 0
-
-    dilate_strips(u8.shape, disk_half_widths(radius_cells), load, emit)
+    h, w = u8.shape
+    out = np.empty((h, w), np.uint8)
+    if h == 0 or w == 0:
+        return out
+    if u8.strides[1] != 1 or u8.strides[0] < w:
+        u8 = np.ascontiguousarray(u8)
+    # The rows as slices of one flat byte view of the image's memory (a window of a larger
+    # grid included): the compiled loops then run over contiguous rows, and vectorise.
+    flat = np.lib.stride_tricks.as_strided(u8, shape=((h - 1) * u8.strides[0] + w,),
+                                           strides=(1,), writeable=False)
+    _clear_rows(flat, u8.strides[0], h, w, np.uint8(keep_value & 0xFF),
+                np.uint8(obstacle_value & 0xFF),
+                np.array(disk_half_widths(radius_cells), np.int64), out)
     return out
+
+
+@njit(cache=True, nogil=True)
+def _clear_rows(flat, stride, h, w, keep, obstacle, half, out):
+    """`clear_of`'s sweep. Input row y is flat[y * stride: y * stride + w]. For each input
+    row, its 0/1 obstacle bytes and their centred horizontal ORs of the disc's half-widths
+    go into a ring of 2 r + 1 rows (`_row_widths`); output row y is then the OR, over
+    dy = -r .. r, of input row y + dy's half-width half[|dy|], and 255 where the cell is
+    keep and that OR is 0. Every inner loop runs over contiguous slices, which LLVM
+    vectorises."""
+    r = half.size - 1
+    hmax = half[0]
+    span = 2 * r + 1
+    widx = np.zeros(r + 1, np.int64)               # ring plane of half[dy]
+    for dy in range(1, r + 1):
+        widx[dy] = widx[dy - 1] + (half[dy] != half[dy - 1])
+    want = np.full(hmax + 1, -1, np.int64)         # ring plane of half-width k, or -1
+    for dy in range(r + 1):
+        want[half[dy]] = widx[dy]
+    ring = np.zeros((span, widx[r] + 1, w + 2 * hmax), np.uint8)  # rows padded by hmax 0s
+    scratch = np.zeros((3, w + 2 * hmax), np.uint8)
+    acc = np.zeros(w, np.uint8)
+    for y in range(h + r):
+        if y < h:
+            _row_widths(flat[y * stride: y * stride + w], obstacle, ring[y % span], want,
+                        scratch)
+        yo = y - r
+        if yo < 0:
+            continue
+        acc[:] = 0
+        for dy in range(max(-r, -yo), min(r, h - 1 - yo) + 1):
+            src = ring[(yo + dy) % span, widx[abs(dy)]][hmax: hmax + w]
+            for x in range(w):
+                acc[x] |= src[x]
+        row = flat[yo * stride: yo * stride + w]
+        o = out[yo]
+        for x in range(w):
+            o[x] = (np.uint8(row[x] == keep) & np.uint8(acc[x] == 0)) * np.uint8(255)
+
+
+@njit(cache=True, nogil=True)
+def _row_widths(row, obstacle, planes, want, scratch):
+    """One input row's 0/1 obstacle bytes (half-width 0) and their centred horizontal ORs
+    of half-width 1 .. hmax (k from k - 1 by one OR of two shifted copies), each into
+    planes[want[k]] if wanted, else a scratch row; rows are padded by hmax zeros."""
+    hmax = want.size - 1
+    w = row.size
+    n_pad = w + 2 * hmax
+    a = planes[want[0]] if want[0] >= 0 else scratch[2]
+    inner = a[hmax: hmax + w]
+    for x in range(w):
+        inner[x] = row[x] == obstacle
+    prev = a
+    for k in range(1, hmax + 1):
+        b = planes[want[k]] if want[k] >= 0 else scratch[k % 2]
+        n = n_pad - 2 * k                          # half-width k is valid on k .. n_pad - k
+        dst = b[k: k + n]
+        left = prev[k - 1: k - 1 + n]
+        right = prev[k + 1: k + 1 + n]
+        if k == 1:
+            mid = prev[k: k + n]
+            for x in range(n):
+                dst[x] = left[x] | mid[x] | right[x]
+        else:
+            for x in range(n):
+                dst[x] = left[x] | right[x]
+        prev = b
 
 
 def dilate_strips(shape: Tuple[int, int], half: List[int],
