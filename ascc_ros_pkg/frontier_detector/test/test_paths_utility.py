@@ -15,6 +15,7 @@ from frontier_detector.utility import (
     UtilityParams,
     cast_rays,
     entropy_weight,
+    ray_offsets,
     score_candidates,
 )
 
@@ -281,14 +282,41 @@ def test_min_info_gain_rule():
                             strategy="nearest").best == 0
 
 
-def test_first_true_along_the_last_axis():
-    from frontier_detector.utility import _first_true
-    rng = np.random.default_rng(3)
-    a = rng.random((7, 11, 13)) < 0.08
-    a[0, 0] = False
-    a[1, 2, -1] = True
-    a[1, 2, :-1] = False
-    expect = np.where(a.any(axis=2), a.argmax(axis=2), 13)
-    got = _first_true(a)
-    assert np.array_equal(got, expect)
-    assert got[0, 0] == 13 and got[1, 2] == 12
+def _reference_rays(grid, rows, cols, params):
+    """Independent reference of cast_rays: every sample looked up, one ray at a time."""
+    dr, dc, area = ray_offsets(RES, params)
+    n_rays, n_steps = dr.shape
+    seen = np.zeros((rows.size, n_rays, n_steps), bool)
+    hit = np.zeros((rows.size, n_rays), bool)
+    for i, (r0, c0) in enumerate(zip(rows, cols)):
+        for j in range(n_rays):
+            vals = []
+            for s in range(n_steps):
+                r, c = r0 + dr[j, s], c0 + dc[j, s]
+                inside = 0 <= r < grid.shape[0] and 0 <= c < grid.shape[1]
+                vals.append(grid[r, c] if inside else None)
+            stops = [s for s, v in enumerate(vals) if v is None or v == OCCUPIED]
+            end = stops[0] if stops else n_steps
+            seen[i, j, :end] = [v == UNKNOWN for v in vals[:end]]
+            hit[i, j] = end < n_steps and vals[end] == OCCUPIED and not seen[i, j].any()
+    info = (seen.astype(np.float32) @ area.astype(np.float32)).sum(axis=1) / (
+        math.pi * params.sensor_range_m ** 2)
+    starts = (np.arange(params.loc_sectors) * n_rays) // params.loc_sectors
+    loc = np.logical_or.reduceat(hit, starts, axis=1).mean(axis=1)
+    return np.minimum(info.astype(np.float64), 1.0), loc
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_cast_rays_equal_a_sample_by_sample_reference(seed):
+    """Random clutter, candidates anywhere (at the map's edges too): the same U_I and U_L,
+    bit for bit."""
+    rng = np.random.default_rng(seed)
+    g = rng.choice(np.array([FREE, OCCUPIED, UNKNOWN], np.int8), size=(45, 60),
+                   p=[0.8, 0.04, 0.16])
+    p = UtilityParams(sensor_range_m=0.8, n_rays=24, loc_sectors=6)
+    rows = np.concatenate([rng.integers(0, 45, 12), [0, 44, 0]])
+    cols = np.concatenate([rng.integers(0, 60, 12), [0, 59, 59]])
+    info, loc = cast_rays(g, RES, rows, cols, p)
+    want_info, want_loc = _reference_rays(g, rows, cols, p)
+    assert np.array_equal(info, want_info) and np.array_equal(loc, want_loc)
+    assert info.max() > 0.0 and loc.max() > 0.0

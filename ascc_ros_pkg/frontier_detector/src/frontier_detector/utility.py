@@ -29,11 +29,10 @@ from dataclasses import dataclass, field
 from typing import Dict, Optional
 
 import numpy as np
+from numba import njit
 
 from ascc_common.grid import OCCUPIED, UNKNOWN
 from ascc_common.params import param
-
-from .frontiers import patches
 
 STRATEGIES = ("utility", "nearest")
 
@@ -96,15 +95,6 @@ def ray_offsets(resolution: float, params: UtilityParams):
     return dr, dc, area
 
 
-def _first_true(a: np.ndarray) -> np.ndarray:
-    """Index of the first True along the last axis, a.shape[-1] where there is none (one
-    argmax pass and a gather, instead of an extra any() pass)."""
-    first = a.argmax(axis=-1)
-    none = ~np.take_along_axis(a, first[..., None], axis=-1)[..., 0]
-    first[none] = a.shape[-1]
-    return first
-
-
 def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.ndarray,
               params: UtilityParams):
     """Ray cast from candidate cells; returns (U_I, U_L), one value per candidate.
@@ -117,37 +107,42 @@ def cast_rays(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.nd
     if n == 0:
         return np.zeros(0), np.zeros(0)
     dr, dc, area = ray_offsets(resolution, params)
-    n_steps = dr.shape[1]
-    # One patch of the grid per candidate (an "off the map" value outside the grid, which
-    # ends the rays there), then one gather with the same offsets for every patch: no
-    # (C, R, S) index array, and each candidate's samples come from its own small patch.
-    off_map = np.int8(-2)
-    half = int(max(np.abs(dr).max(), np.abs(dc).max()))
-    side = 2 * half + 1
-    local = patches(np.asarray(grid, dtype=np.int8), np.stack([rows, cols], axis=1), half,
-                    fill=off_map).reshape(n, side * side)
-    vals = np.take(local, ((dr + half) * side + (dc + half)).ravel(), axis=1, mode="wrap"
-                   ).reshape(n, dr.shape[0], n_steps)                       # (C, R, S)
-    stop = (vals == OCCUPIED) | (vals == off_map)
-    # Index of the first stopping sample on each ray (n_steps if none).
-    first_stop = _first_true(stop)
-    # The unknown samples before it: each ray's prefix mask is a row of a table of the
-    # n_steps + 1 possible prefixes (a gather of rows, cheaper than comparing every sample
-    # with its ray's first stop).
-    prefix = np.tri(n_steps + 1, n_steps, -1, dtype=bool)           # [f, s]: s < f
-    seen_unknown = prefix.take(first_stop, axis=0)
-    seen_unknown &= vals == UNKNOWN
-    ray_info = seen_unknown.astype(np.float32) @ area.astype(np.float32)      # (C, R)
+    # The rays are marched (compiled) up to their first stop; the unknown samples before
+    # it are summed in float32 by one matrix product, as numpy always has summed them.
+    seen = np.zeros((n,) + dr.shape, bool)                              # (C, R, S)
+    hit = np.zeros((n, dr.shape[0]), bool)                              # (C, R)
+    _march_rays(np.asarray(grid, dtype=np.int8), rows, cols, dr, dc, seen, hit)
+    ray_info = seen.astype(np.float32) @ area.astype(np.float32)              # (C, R)
     info = ray_info.sum(axis=1) / (math.pi * params.sensor_range_m ** 2)
-    # Landmark: an occupied cell reached through free cells only. The areas are positive,
-    # so a ray saw no unknown before its stop iff its visible unknown area is 0.
-    first_val = np.take_along_axis(vals, np.minimum(first_stop, n_steps - 1)[..., None],
-                                   axis=2)[..., 0]
-    hit = (first_stop < n_steps) & (first_val == OCCUPIED) & (ray_info == 0.0)
     starts = (np.arange(params.loc_sectors) * params.n_rays) // params.loc_sectors
     per_sector = np.logical_or.reduceat(hit, starts, axis=1)             # (C, sectors)
     loc = per_sector.mean(axis=1)
     return np.minimum(info.astype(np.float64), 1.0), loc
+
+
+@njit(cache=True, nogil=True)
+def _march_rays(grid, rows, cols, dr, dc, seen, hit):
+    """For candidate i and ray j, walk the samples (rows[i] + dr[j, s], cols[i] + dc[j, s])
+    until the first OCCUPIED one or the first off the map: seen[i, j, s] = the sample
+    before it is UNKNOWN; hit[i, j] = the ray stopped at an OCCUPIED cell with no UNKNOWN
+    before it (a landmark reached through free cells only)."""
+    h, w = grid.shape
+    n_rays, n_steps = dr.shape
+    for i in range(rows.size):
+        for j in range(n_rays):
+            unknown = False
+            for s in range(n_steps):
+                r = rows[i] + dr[j, s]
+                c = cols[i] + dc[j, s]
+                if r < 0 or r >= h or c < 0 or c >= w:
+                    break
+                v = grid[r, c]
+                if v == OCCUPIED:
+                    hit[i, j] = not unknown
+                    break
+                if v == UNKNOWN:
+                    seen[i, j, s] = True
+                    unknown = True
 
 
 def score_candidates(grid: np.ndarray, resolution: float, rows: np.ndarray, cols: np.ndarray,
