@@ -78,6 +78,45 @@ def test_path_lengths_equal_a_lexicographic_dijkstra_on_random_maps(seed):
     np.testing.assert_array_equal(got, want)
 
 
+def _reference_allow(mask, k):
+    """The move bits by their definition (paths.py's docstring), block by block."""
+    hc, wc = mask.shape[0] // k, mask.shape[1] // k
+    t = mask != 0
+
+    def east(i, j):        # block (i, j) -> (i, j + 1)
+        return 0 <= i < hc and 0 <= j < wc - 1 and bool(
+            (t[i * k: i * k + k, j * k + k - 1] & t[i * k: i * k + k, j * k + k]).any())
+
+    def south(i, j):       # block (i, j) -> (i + 1, j)
+        return 0 <= i < hc - 1 and 0 <= j < wc and bool(
+            (t[i * k + k - 1, j * k: j * k + k] & t[i * k + k, j * k: j * k + k]).any())
+
+    allow = np.zeros((hc + 2, wc + 2), np.uint8)
+    for i in range(hc):
+        for j in range(wc):
+            moves = [east(i, j), east(i, j - 1), south(i, j), south(i - 1, j),
+                     (east(i, j) and south(i, j + 1)) or (south(i, j) and east(i + 1, j)),
+                     (east(i, j - 1) and south(i, j - 1)) or (south(i, j) and east(i + 1, j - 1)),
+                     (east(i, j) and south(i - 1, j + 1)) or (south(i - 1, j) and east(i - 1, j)),
+                     (east(i, j - 1) and south(i - 1, j - 1))
+                     or (south(i - 1, j) and east(i - 1, j - 1))]
+            allow[i + 1, j + 1] = sum(1 << d for d, m in enumerate(moves) if m)
+    return allow.ravel()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_build_graph_equals_the_definition(seed):
+    """Random masks of 1 x 1 to 9 x 9 blocks of 1..5 cells, sparse to nearly full."""
+    rng = np.random.default_rng(seed)
+    for _ in range(12):
+        k = int(rng.integers(1, 6))
+        h, w = (k * int(v) for v in rng.integers(1, 10, 2))
+        mask = ((rng.random((h, w)) < rng.uniform(0.3, 0.95)) * 255).astype(np.uint8)
+        g = build_graph(mask, k)
+        assert g.shape == (h // k + 2, w // k + 2)
+        assert np.array_equal(g.allow, _reference_allow(mask, k)), (k, h, w)
+
+
 def test_build_graph_same_for_uint8_and_bool_masks():
     """build_graph's OpenCV reduction (uint8) and numpy's (other dtypes) give one graph."""
     rng = np.random.default_rng(3)

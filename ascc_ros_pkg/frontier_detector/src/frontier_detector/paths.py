@@ -20,7 +20,6 @@ import math
 from dataclasses import dataclass
 from typing import Tuple
 
-import cv2
 import numpy as np
 from numba import njit
 
@@ -67,54 +66,58 @@ def build_graph(traversable: np.ndarray, k: int) -> CoarseGraph:
     h, w = traversable.shape
     if h % k or w % k:
         raise ValueError(f"mask shape {traversable.shape} is not a multiple of k={k}")
-    hc, wc = h // k, w // k
     t = traversable
-    if t.dtype != np.uint8:                          # OpenCV below: 0/1 bytes will do
+    if t.dtype != np.uint8:
         t = (t if t.dtype == bool else t != 0).view(np.uint8)
-    # East edges: the last column of block j touches the first column of block j+1.
-    ep = np.zeros((hc + 2, wc + 2), bool)
-    if wc > 1 and hc > 0:
-        # Row j of every block at a time (row-strided views, contiguous along the row):
-        # each cell AND its east neighbour, ORed over the block's k rows; the block borders'
-        # columns are picked from the small result. Several times faster than the
-        # column-strided views over the whole mask.
-        pair_any = np.zeros((hc, w - k), np.uint8)
+    allow = np.zeros((h // k + 2, w // k + 2), np.uint8)
+    if h and w:
+        _allow_bits(np.ascontiguousarray(t), k, allow)
+    return CoarseGraph(k, allow.shape, allow.ravel())
+
+
+@njit(cache=True, nogil=True)
+def _allow_bits(t, k, allow):
+    """The move bits of the inner blocks of `allow` (padded by one block on every side).
+
+    Crossings first: east[i, j] (block (i, j) to (i, j + 1)): a traversable cell on the
+    block's last column next to one on the neighbour's first, in one of the block's k rows;
+    south likewise over the k columns. Each row pair is ANDed whole (contiguous, so
+    vectorised) and ORed over the block's rows; the block borders are read from that. Then
+    E, W, S, N from the crossings, and a diagonal move from one of its two L-shaped
+    detours.
+    """
+    h, w = t.shape
+    hc, wc = h // k, w // k
+    east = np.zeros((hc + 2, wc + 2), np.uint8)    # padded like allow: block (i, j) at i + 1
+    south = np.zeros((hc + 2, wc + 2), np.uint8)
+    pair = np.zeros(w, np.uint8)
+    for bi in range(hc):
+        pair[:] = 0
         for j in range(k):
-            rows_j = t[j::k]
-            cv2.bitwise_or(pair_any, cv2.bitwise_and(rows_j[:, k - 1: w - 1], rows_j[:, k:]),
-                           dst=pair_any)
-        ep[1:-1, 1:-2] = pair_any[:, ::k] > 0
-    sp = np.zeros((hc + 2, wc + 2), bool)
-    if hc > 1:
-        cross = cv2.bitwise_and(t[k - 1: h - 1: k, :], t[k:: k, :])
-        # Any of each block's k columns: a forward running maximum of width k (OpenCV,
-        # anchored at the window's start), read at every block's first column.
-        any_col = cv2.dilate(cross, np.ones((1, k), np.uint8), anchor=(0, 0))[:, ::k]
-        sp[1:-2, 1:-1] = any_col > 0
-    # Padding by one block on every side keeps neighbour indices from wrapping around; the
-    # padding blocks allow no move, so the bits are computed for the inner blocks only, on
-    # shifted views of the 0/1 crossing arrays (no shifted copies).
-    e, s = ep.view(np.uint8), sp.view(np.uint8)
-    hp, wp = hc + 2, wc + 2
-
-    def at(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
-        """a[i + dr, j + dc] for the inner blocks (i, j)."""
-        return a[1 + dr: hp - 1 + dr, 1 + dc: wp - 1 + dc]
-
-    allow = np.zeros((hp, wp), np.uint8)
-    inner = allow[1:-1, 1:-1]
-    # Bits: E, W, S, N; a diagonal move needs one of its two L-shaped detours. OpenCV on
-    # the 0/1 bytes (several times faster than numpy's bool operators here); each move
-    # sets its bit by one masked OR.
-    band, bor = cv2.bitwise_and, cv2.bitwise_or
-    for bit, m in enumerate((
-            at(e, 0, 0), at(e, 0, -1), at(s, 0, 0), at(s, -1, 0),
-            bor(band(at(e, 0, 0), at(s, 0, 1)), band(at(s, 0, 0), at(e, 1, 0))),          # SE
-            bor(band(at(e, 0, -1), at(s, 0, -1)), band(at(s, 0, 0), at(e, 1, -1))),       # SW
-            bor(band(at(e, 0, 0), at(s, -1, 1)), band(at(s, -1, 0), at(e, -1, 0))),       # NE
-            bor(band(at(e, 0, -1), at(s, -1, -1)), band(at(s, -1, 0), at(e, -1, -1))))):  # NW
-        cv2.bitwise_or(inner, 1 << bit, dst=inner, mask=m)
-    return CoarseGraph(k, (hp, wp), allow.ravel())
+            row = t[bi * k + j]
+            left, right = row[: w - 1], row[1:]
+            for x in range(w - 1):
+                pair[x] |= left[x] & right[x]
+        for bj in range(wc - 1):
+            east[bi + 1, bj + 1] = pair[bj * k + k - 1] != 0
+        if bi < hc - 1:
+            up, down = t[bi * k + k - 1], t[bi * k + k]
+            for x in range(w):
+                pair[x] = up[x] & down[x]
+            for bj in range(wc):
+                any_col = np.uint8(0)
+                for c in range(bj * k, bj * k + k):
+                    any_col |= pair[c]
+                south[bi + 1, bj + 1] = any_col != 0
+    for i in range(1, hc + 1):
+        for j in range(1, wc + 1):
+            e, ew, s, sn = east[i, j], east[i, j - 1], south[i, j], south[i - 1, j]
+            se = (e & south[i, j + 1]) | (s & east[i + 1, j])
+            sw = (ew & south[i, j - 1]) | (s & east[i + 1, j - 1])
+            ne = (e & south[i - 1, j + 1]) | (sn & east[i - 1, j])
+            nw = (ew & south[i - 1, j - 1]) | (sn & east[i - 1, j - 1])
+            allow[i, j] = (e | (ew << 1) | (s << 2) | (sn << 3) | (se << 4) | (sw << 5)
+                           | (ne << 6) | (nw << 7))
 
 
 def path_lengths(graph: CoarseGraph, start_node: int, resolution: float) -> np.ndarray:
