@@ -125,3 +125,16 @@ def plan(grid: np.ndarray, info: GridInfo, robot_xy: Tuple[float, float],
     timings["utility"] = (time.perf_counter() - t0) * 1e3
     timings["total"] = sum(timings[k] for k in ("phase1", "phase2", "phase3", "utility"))
     return out
+
+
+def warm_up() -> float:
+    """One plan on a small made-up map, so that every compiled (numba) kernel of the
+    search is loaded from numba's cache, or compiled on a first run (a few seconds of CPU
+    once per source change; README). Returns the CPU time it took [s]."""
+    t0 = time.process_time()
+    grid = np.full((60, 80), -1, np.int8)           # unknown, a walled free room in it
+    grid[5:55, 5:45] = 100
+    grid[6:54, 6:44] = 0
+    grid[20:30, 44] = 0                              # a door into the unknown
+    plan(grid, GridInfo(0.05, 80, 60), (1.0, 1.0), PlannerParams())
+    return time.process_time() - t0
