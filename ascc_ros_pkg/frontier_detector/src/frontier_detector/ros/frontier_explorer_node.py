@@ -24,6 +24,7 @@ from visualization_msgs.msg import MarkerArray
 from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from frontier_detector import explorer as ex
+from frontier_detector.goal_selection import warm_up
 from frontier_detector.rosmsg import goal_pose, grid_from_msg, plan_markers
 
 _OUTCOMES = {GoalStatus.SUCCEEDED: ex.SUCCEEDED, GoalStatus.ABORTED: ex.ABORTED,
@@ -71,6 +72,9 @@ class ExplorerNode:
         self.period = period
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
         # message (ascc_common.paced_timer); a clock that went back restarts it
+        # the search's compiled kernels loaded (or compiled, after a source change) now,
+        # not in the first plan
+        rospy.loginfo("frontier_explorer: compiled search ready (%.2f s of CPU)" % warm_up())
         self.timer = PacedTimer(period, self._tick_guarded, rospy.get_time, rospy.is_shutdown,
                                 name="planning")
 
