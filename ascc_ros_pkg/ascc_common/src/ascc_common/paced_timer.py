@@ -8,10 +8,11 @@ without it, three such timers ~1 % more (a 100 Hz /clock, nothing else running i
 
 ``PacedTimer`` sleeps in wall time instead: the ROS time still to wait divided by the
 clock's observed rate (simulated seconds per wall second; 1 on a robot), so it wakes about
-once or twice per period. A simulated clock moves in steps (10 ms with ascc_sim): woken just
-before the step that reaches the due time, it sleeps a tenth of the period more (not a
-spin), so a call is at most that late (a rospy.Timer: one /clock step). The caller passes
-the clock and the shutdown test (``rospy.get_time``, ``rospy.is_shutdown``).
+about once per period: it aims a tenth of a period past the due time, so that a clock
+moving in steps (10 ms with ascc_sim) or at a jittery rate has usually reached it (woken
+early, it sleeps that tenth again, not a spin). A call is thus about a tenth of a period
+late (a rospy.Timer: up to one /clock step). The caller passes the clock and the shutdown
+test (``rospy.get_time``, ``rospy.is_shutdown``).
 
 Schedule, as ``rospy.Timer(..., reset=True)``: due times ``start + k * period``; a call
 late by more than a period (a starved process) is not repeated: the schedule restarts
@@ -78,7 +79,9 @@ class PacedTimer:
 
     def sleep_for(self, remaining: float) -> float:
         """Wall time to sleep while ``remaining`` [s of clock] are left before the due time."""
-        wait = max(remaining, self.RECHECK_SHARE * self.period_s)
+        # aim a little past the due time: woken before it (the clock's step, the rate's
+        # jitter), the timer would sleep again, and each wake-up costs as much as a call
+        wait = max(remaining, 0.0) + self.RECHECK_SHARE * self.period_s
         return min(self.max_sleep_s, max(self.min_sleep_s, wait / max(self._rate, 1e-3)))
 
     def run(self) -> None:
