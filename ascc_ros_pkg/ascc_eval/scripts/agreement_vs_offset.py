@@ -5,7 +5,7 @@ The corridor goal asks the SLAM map to agree >= 97 % cell by cell with the floor
 (``ascc_navigation.grid.map_agreement``, the measure of ``bench_mapper.py`` and
 ``bench_exploration.py``). A long side whose neighbour came out a little too long or too
 short is mapped whole beside its true place. This tool takes the best map a laser could
-give (the plan's free cells and the wall cells next to them, nothing else) and moves one
+give (the plan's free cells and its wall faces, nothing else) and moves one
 half of it (north or east of the plan's middle) by 1..N cells, then prints the agreement:
 the size of the global error each agreement allows, whatever the mapper.
 
@@ -15,11 +15,11 @@ the size of the global error each agreement allows, whatever the mapper.
 import argparse
 import os
 
-import cv2
 import numpy as np
 
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN
 from ascc_common.map_io import load_map
+from ascc_eval.map_quality import wall_faces
 from ascc_navigation.grid import map_agreement
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -27,11 +27,11 @@ DEFAULT_MAP = os.path.join(HERE, "..", "..", "ascc_sim", "worlds", "maps", "corr
 
 
 def visible_map(plan: np.ndarray) -> np.ndarray:
-    """The plan's free cells and the occupied cells 8-adjacent to one (what a laser maps)."""
-    near_free = cv2.dilate((plan == FREE).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+    """The plan's free cells and its wall faces (``map_quality.wall_faces``: what a laser
+    maps)."""
     out = np.full(plan.shape, UNKNOWN, dtype=np.int8)
     out[plan == FREE] = FREE
-    out[(plan == OCCUPIED) & near_free] = OCCUPIED
+    out[wall_faces(plan)] = OCCUPIED
     return out
 
 

@@ -84,13 +84,19 @@ class PacedTimer:
         wait = max(remaining, 0.0) + self.RECHECK_SHARE * self.period_s
         return min(self.max_sleep_s, max(self.min_sleep_s, wait / max(self._rate, 1e-3)))
 
+    def _read_clock(self) -> Optional[float]:
+        """The clock, or None when it fails (rospy's at shutdown): the timer then ends."""
+        try:
+            return self._now()
+        except Exception:  # noqa: BLE001
+            return None
+
     def run(self) -> None:
         due = None
         last_clock = None
         while not self._stopped and not self._is_shutdown():
-            try:
-                clock = self._now()
-            except Exception:  # noqa: BLE001 - rospy's clock at shutdown: the timer ends
+            clock = self._read_clock()
+            if clock is None:
                 return
             self._observe(clock, self._wall())
             if last_clock is not None and clock < last_clock:
@@ -107,9 +113,8 @@ class PacedTimer:
                 self.callback()
                 if self._stopped or self._is_shutdown():
                     return
-                try:
-                    clock = self._now()
-                except Exception:  # noqa: BLE001
+                clock = self._read_clock()
+                if clock is None:
                     return
                 if clock < last_clock:           # went back during the call
                     continue

@@ -85,7 +85,7 @@ class MclLocalizerNode:
         rospy.Service("global_localization", Empty, self.on_global_localization)
         rospy.Service("request_nomotion_update", Empty, self.on_nomotion_update)
         # not a rospy.Timer: under simulated time that wakes on every /clock message
-        self.timer = PacedTimer(p.process_period_s, lambda: self.on_timer(None),
+        self.timer = PacedTimer(p.process_period_s, self.on_timer,
                                 rospy.get_time, rospy.is_shutdown, name="filter")
 
     # -- callbacks: store the newest input -----------------------------------------------
@@ -111,7 +111,7 @@ class MclLocalizerNode:
         return EmptyResponse()
 
     # -- the work, on the timer ---------------------------------------------------------
-    def on_timer(self, _event):
+    def on_timer(self):
         with self.lock:
             self._apply_map()
             if self.localizer is None:

@@ -101,7 +101,7 @@ class NavigatorNode:
         self._status_timer_with_reset()
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
         # message (ascc_common.paced_timer)
-        self.timer = PacedTimer(self.period, lambda: self.on_timer(None), rospy.get_time,
+        self.timer = PacedTimer(self.period, self.on_timer, rospy.get_time,
                                 rospy.is_shutdown, name="controller")
         rospy.on_shutdown(self.stop_robot)
 
@@ -120,7 +120,7 @@ class NavigatorNode:
         self.action_goal_pub.publish(goal)
 
     # -- the control loop ----------------------------------------------------------------
-    def on_timer(self, _event):
+    def on_timer(self):
         with self.lock:
             now = rospy.Time.now()
             dt = self._dt(now)

@@ -71,10 +71,10 @@ class SlamMapperNode:
         rospy.Subscriber("scan", numpy_msg(LaserScan), self.on_scan, queue_size=1)
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
         # message (ascc_common.paced_timer)
-        self.timers = [PacedTimer(p.process_period_s, lambda: self.on_process(None),
+        self.timers = [PacedTimer(p.process_period_s, self.on_process,
                                   rospy.get_time, rospy.is_shutdown, name="process")]
         if tf_period > 0.0:
-            self.timers.append(PacedTimer(tf_period, lambda: self.on_publish_tf(None),
+            self.timers.append(PacedTimer(tf_period, self.on_publish_tf,
                                           rospy.get_time, rospy.is_shutdown,
                                           name="map_to_odom"))
 
@@ -94,7 +94,7 @@ class SlamMapperNode:
                             data=grid_to_msg_data(msg.data))
         return GetMapResponse(map=out)
 
-    def on_publish_tf(self, _event):
+    def on_publish_tf(self):
         stamp = rospy.Time.now() + self.tf_delay
         if stamp == self.last_tf_stamp:
             # A timer catching up (process behind /clock) fires at the same time: one
@@ -112,7 +112,7 @@ class SlamMapperNode:
          t.transform.rotation.w) = quaternion_from_yaw(yaw)
         self.tf_broadcaster.sendTransform(t)
 
-    def on_process(self, _event):
+    def on_process(self):
         with self.lock:
             waiting = list(self.scans)
         chosen = None

@@ -69,18 +69,17 @@ class ExplorerNode:
         self._publish_status(ex.IDLE)
         if p.autostart:
             self.ctrl.start()
-        self.period = period
-        # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
-        # message (ascc_common.paced_timer); a clock that went back restarts it
         # the search's compiled kernels loaded (or compiled, after a source change) now,
         # not in the first plan
         rospy.loginfo("frontier_explorer: compiled search ready (%.2f s of CPU)" % warm_up())
+        # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
+        # message (ascc_common.paced_timer); a clock that went back restarts it
         self.timer = PacedTimer(period, self._tick_guarded, rospy.get_time, rospy.is_shutdown,
                                 name="planning")
 
     def _tick_guarded(self):
         try:
-            self._tick(None)
+            self._tick()
         except Exception as exc:  # noqa: BLE001 - the loop must survive
             rospy.logerr_throttle(10.0, "frontier_explorer: planning failed: %s: %s"
                                   % (type(exc).__name__, exc))
@@ -113,7 +112,7 @@ class ExplorerNode:
         return TriggerResponse(True, "stopped" + (" (goal cancelled)" if active else ""))
 
     # -- the timer: all work happens here ---------------------------------------------
-    def _tick(self, _event):
+    def _tick(self):
         with self.lock:
             msg, count, entropy = self.map_msg, self.map_count, self.entropy
             outcome = self.outcome
