@@ -281,6 +281,35 @@ def test_runner_unpaced_and_catch_up():
     assert runner2.catch_up_resets == 1
 
 
+def test_runner_stamps_on_the_wall_clock_across_a_lost_second():
+    """stamp_s (the node's mode without /clock): simulated time on the epoch clock, from
+    start(); when pacing gives up catching up, the lost wall time moves the stamps on with
+    it, so they stay on the wall clock."""
+    world = box_world([("r", 2.0, 2.0, 0.0)])
+    sim = Simulation(world, {"r": started_create()}, NOISELESS)
+    wall, epoch0 = [10.0], 1.7e9
+
+    def sleep(s):
+        wall[0] += s
+
+    runner = SimRunner(sim, {}, 0.01, real_time_factor=1.0, wall_clock=lambda: wall[0],
+                       sleep=sleep, epoch_clock=lambda: epoch0 + wall[0] - 10.0)
+    t_start = sim.time_s
+    runner.start()
+    assert runner.stamp_s(t_start) == pytest.approx(epoch0)
+    for _ in range(100):
+        runner.step()
+    # paced: one simulated second = one wall second, on both clocks
+    assert runner.stamp_s(sim.time_s) == pytest.approx(epoch0 + wall[0] - 10.0, abs=1e-6)
+    wall[0] += 2.0          # the process was stopped for 2 s
+    runner.step()
+    assert runner.catch_up_resets == 1
+    assert runner.stamp_s(sim.time_s) == pytest.approx(epoch0 + wall[0] - 10.0, abs=0.011)
+    for _ in range(50):
+        runner.step()
+    assert runner.stamp_s(sim.time_s) == pytest.approx(epoch0 + wall[0] - 10.0, abs=0.011)
+
+
 def test_simulator_params_clock_period_follows_the_physics_step_unless_set():
     p = from_params(SimulatorParams, {"physics_dt_s": 0.02}.get, "")
     assert p.world is None and p.link_dir is None and p.clock_period() == 0.02

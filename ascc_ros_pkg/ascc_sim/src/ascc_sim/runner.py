@@ -92,7 +92,8 @@ class SimRunner:
                  real_time_factor: float = 1.0, max_sim_time_s: float = 0.0,
                  wall_clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep,
-                 cpu_clock: Callable[[], float] = time.process_time):
+                 cpu_clock: Callable[[], float] = time.process_time,
+                 epoch_clock: Callable[[], float] = time.time):
         if not dt_s > 0:
             raise ValueError("dt_s must be > 0")
         if real_time_factor < 0:
@@ -105,7 +106,10 @@ class SimRunner:
         self._wall = wall_clock
         self._sleep = sleep
         self._cpu = cpu_clock
+        self._epoch = epoch_clock
         self.cpu_start = 0.0
+        # epoch time minus simulated time at the pace's reference: stamp_s() (wall-clock mode)
+        self.epoch_offset_s = 0.0
         self.periodics: List[Periodic] = []
         self.steps = 0
         self.wall_start: Optional[float] = None
@@ -133,6 +137,7 @@ class SimRunner:
         self.cpu_start = self._cpu()
         self.wall_start = self._pace_wall0 = now
         self._pace_sim0 = self.sim.time_s
+        self.epoch_offset_s = self._epoch() - self.sim.time_s
         for p in self.periodics:
             p.poll(self.sim.time_s)
 
@@ -160,7 +165,15 @@ class SimRunner:
             # Far behind (slow host, suspended process): restart pacing from here instead
             # of running flat out until the lost time is made up.
             self._pace_wall0, self._pace_sim0 = now, self.sim.time_s
+            self.epoch_offset_s += now - target  # the time lost: stamps stay on the wall clock
             self.catch_up_resets += 1
+
+    def stamp_s(self, t_s: float) -> float:
+        """Simulated time t_s on the wall clock (epoch seconds) for a simulation paced at a
+        real-time factor of 1 that runs on the wall clock instead of /clock: the epoch time
+        at start() plus the simulated time since, plus the time lost whenever pacing gave up
+        catching up. At other factors the two clocks part: the node refuses that mode."""
+        return self.epoch_offset_s + t_s
 
     def achieved_real_time_factor(self) -> float:
         """Simulated time over wall time since start()."""

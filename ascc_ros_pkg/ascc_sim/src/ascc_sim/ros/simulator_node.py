@@ -3,6 +3,10 @@ virtual iRobot Create behind a pseudo-terminal (the real irobot_create_2_1 drive
 it), and publishes /clock, the lasers and the ground truth. The simulation itself lives
 in ascc_sim.sim / ascc_sim.runner; this file wires parameters, topics and links.
 
+With /use_sim_time false (sim.launch use_sim_time:=false) there is no /clock: the node runs
+at a real-time factor of 1 and stamps its messages with the wall clock, as a robot's
+drivers do, so the nodes under test run on the wall clock too (bench_cpu.py --wall-clock).
+
 Parameters (private): ``ascc_sim.runner.SimulatorParams``, with ``~robot/*``
 (``ascc_sim.sim.RobotModel``) and ``~laser/*`` (``ascc_sim.laser.LaserConfig``); see the
 package README, section "In your own launch files".
@@ -42,6 +46,11 @@ class SimulatorNode:
         p = from_params(SimulatorParams, rospy.get_param, "~")
         if p.world is None:
             raise ValueError("parameter ~world (path of the world YAML) is not set")
+        self.sim_time = bool(rospy.get_param("/use_sim_time", False))
+        if not self.sim_time and p.real_time_factor != 1.0:
+            raise ValueError("~real_time_factor %g: with /use_sim_time false the simulator "
+                             "stamps with the wall clock, which needs a real-time factor of 1"
+                             % p.real_time_factor)
         self.map_frame = p.map_frame
         self.link_dir = p.link_dir if p.link_dir is not None else "/tmp/ascc_sim_%d" % (
             os.getpid())
@@ -96,7 +105,8 @@ class SimulatorNode:
         self.static_tf = tf2_ros.StaticTransformBroadcaster()
         self._publish_static(p.publish_map_to_odom)
 
-        self.runner.every(p.clock_period(), self.on_clock)
+        if self.sim_time:
+            self.runner.every(p.clock_period(), self.on_clock)
         period = self.laser_cfg.scan_period_s  # 10 Hz for the URG-04LX
         for i, spec in enumerate(self.specs):  # spread the robots' scans over the period
             self.runner.every(period, lambda t, s=spec: self.on_scan(t, s),
@@ -104,9 +114,15 @@ class SimulatorNode:
         self.runner.every(1.0 / p.ground_truth_rate_hz, self.on_truth)
         self.runner.every(1.0 / p.marker_rate_hz, self.on_markers)
         rospy.loginfo("ascc_sim: world %s, robots %s, links in %s, real_time_factor %g, "
-                      "seed %d", self.world.path,
+                      "seed %d, %s", self.world.path,
                       ", ".join("%s (ns '%s')" % (s.name, s.namespace) for s in self.specs),
-                      self.link_dir, p.real_time_factor, p.seed)
+                      self.link_dir, p.real_time_factor, p.seed,
+                      "/clock" if self.sim_time else "on the wall clock (no /clock)")
+
+    def stamp(self, t):
+        """The stamp of an output at simulated time t: t itself under /clock, else t on
+        the wall clock."""
+        return t if self.sim_time else self.runner.stamp_s(t)
 
     def _publish_static(self, map_to_odom):
         m = self.model
@@ -134,10 +150,11 @@ class SimulatorNode:
     def on_scan(self, t, spec):
         pub = self.scan_pubs[spec.name]
         if pub.get_num_connections():
-            pub.publish(M.laser_scan(t, M.frame_names(spec)[2], self.laser_cfg,
+            pub.publish(M.laser_scan(self.stamp(t), M.frame_names(spec)[2], self.laser_cfg,
                                      self.sim.scan(spec.name)))
 
     def on_truth(self, t):
+        t = self.stamp(t)
         for r in self.sim.robots:
             if self.pose_pubs[r.name].get_num_connections():
                 self.pose_pubs[r.name].publish(M.truth_pose(t, self.map_frame, r.x, r.y,
@@ -154,7 +171,7 @@ class SimulatorNode:
         if not self.marker_pub.get_num_connections():
             return
         self.marker_pub.publish(self.markers.markers(
-            t, [(r.name, r.x, r.y, r.yaw) for r in self.sim.robots],
+            self.stamp(t), [(r.name, r.x, r.y, r.yaw) for r in self.sim.robots],
             [(p.spec, st) for p, st in zip(self.sim.people, self.sim.people_states)]))
 
     # --- main loop --------------------------------------------------------------------------
@@ -184,7 +201,8 @@ class SimulatorNode:
                     rospy.logwarn("ascc_sim: starting without %s after %.0f s (no driver "
                                   "on the link?)", ", ".join(missing), self.wait_drivers_s)
                 return
-            self.on_clock(0.0)
+            if self.sim_time:
+                self.on_clock(0.0)
             time.sleep(0.05)
 
     def spin(self):
