@@ -23,13 +23,17 @@ under simulated time: its share is what every rospy node of the run pays for bei
 exists on the robot, where there is no /clock. A node's own work is its share minus
 about that floor.
 
+--wall-clock runs the simulator on the wall clock instead (sim.launch use_sim_time:=false:
+no /clock, the simulator stamps with the wall clock at a real-time factor of 1), so the
+nodes run as on the robot; the probe then shows rospy's floor without /clock.
+
 The measuring nodes must not make the robot's nodes work: without --record there is no
 bag recorder (whose subscriptions to /tf, odom, scan and map cost the driver and the mapper
 a connection each), and the exploration monitor leaves /tf once it has the laser's mount.
 
     rosrun ascc_eval bench_cpu.py [--duration-s 600] [--world corridor] [--rtf 1]
         [--strategy utility] [--seed 0] [--window-s 60] [--warmup-s 20] [--out DIR]
-        [--record]
+        [--record] [--wall-clock]
 """
 import argparse
 import json
@@ -199,7 +203,12 @@ def main() -> int:
     ap.add_argument("--record", action="store_true",
                     help="also record run.bag (explore_demo.launch's bag_recorder): its "
                          "subscriptions make the driver and the mapper send more")
+    ap.add_argument("--wall-clock", action="store_true",
+                    help="the simulator on the wall clock (no /clock), as on the robot; "
+                         "needs --rtf 1")
     args = ap.parse_args()
+    if args.wall_clock and float(args.rtf) != 1.0:
+        ap.error("--wall-clock needs --rtf 1 (the simulator stamps with the wall clock)")
     run_dir = os.path.join(args.out, "%s_%s_seed%d" % (args.world, args.strategy, args.seed))
     os.makedirs(run_dir, exist_ok=True)
     port = free_port()
@@ -207,10 +216,13 @@ def main() -> int:
     cmd = ["roslaunch", "-p", str(port), os.path.join(ROOT, "launch", "explore_demo.launch"),
            "world:=%s" % args.world, "strategy:=%s" % args.strategy, "seed:=%d" % args.seed,
            "real_time_factor:=%s" % args.rtf, "output_dir:=%s" % run_dir,
-           "max_time_s:=%g" % args.duration_s, "record:=%s" % str(args.record).lower()]
+           "max_time_s:=%g" % args.duration_s, "record:=%s" % str(args.record).lower(),
+           "use_sim_time:=%s" % str(not args.wall_clock).lower()]
     load0 = os.getloadavg()
-    print("%s: %s for %.0f s simulated at rtf %s, load average %.1f %.1f %.1f"
-          % (args.world, args.strategy, args.duration_s, args.rtf, *load0))
+    print("%s: %s for %.0f s simulated at rtf %s (%s), load average %.1f %.1f %.1f"
+          % (args.world, args.strategy, args.duration_s, args.rtf,
+             "wall clock, no /clock" if args.wall_clock else "simulated time, /clock",
+             *load0))
     start = time.time()
     samples = run_and_sample(cmd, env, os.path.join(run_dir, "launch.log"), start,
                              args.duration_s, args.period_s)
@@ -241,7 +253,8 @@ def main() -> int:
                                             s["peak_rss_mb"]))
         if name == "robot_stack":
             print("-- not robot-side (%s: an idle rospy node, the floor of every node "
-                  "under simulated time):" % PROBE)
+                  "%s):" % (PROBE, "on the wall clock" if args.wall_clock
+                            else "under simulated time"))
     with open(os.path.join(args.out, "cpu.json"), "w") as f:
         json.dump({"args": vars(args), "wall_s": wall, "sim_s": sim, "rtf": rtf,
                    "load_start": load0, "load_end": load1, "summary": summary,
