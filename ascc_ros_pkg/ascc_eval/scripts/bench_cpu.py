@@ -29,7 +29,9 @@ nodes run as on the robot; the probe then shows rospy's floor without /clock.
 
 The measuring nodes must not make the robot's nodes work: without --record there is no
 bag recorder (whose subscriptions to /tf, odom, scan and map cost the driver and the mapper
-a connection each), and the exploration monitor leaves /tf once it has the laser's mount.
+a connection each), the exploration monitor leaves /tf once it has the laser's mount and
+does not count bumps (count_bumps:=false: its sensorPacket subscription would make the
+driver build a sensor packet every 0.1 s).
 
     rosrun ascc_eval bench_cpu.py [--duration-s 600] [--world corridor] [--rtf 1]
         [--strategy utility] [--seed 0] [--window-s 60] [--warmup-s 20] [--out DIR]
@@ -217,7 +219,7 @@ def main() -> int:
            "world:=%s" % args.world, "strategy:=%s" % args.strategy, "seed:=%d" % args.seed,
            "real_time_factor:=%s" % args.rtf, "output_dir:=%s" % run_dir,
            "max_time_s:=%g" % args.duration_s, "record:=%s" % str(args.record).lower(),
-           "use_sim_time:=%s" % str(not args.wall_clock).lower()]
+           "use_sim_time:=%s" % str(not args.wall_clock).lower(), "count_bumps:=false"]
     load0 = os.getloadavg()
     print("%s: %s for %.0f s simulated at rtf %s (%s), load average %.1f %.1f %.1f"
           % (args.world, args.strategy, args.duration_s, args.rtf,

@@ -118,6 +118,9 @@ class MonitorParams:
     file_stem: str = param("", "stem of the report files (\"\": the file-safe label)")
     robot_frame: str = param("base_link", "frame of the truth pose (the laser's mount)")
     period_s: float = param(1.0, "[s] coverage period")
+    count_bumps: bool = param(True, "count bumper hits from the driver's sensorPacket (false: "
+                                    "not subscribed, so the driver builds no packets for the "
+                                    "monitor, as in CPU measurements; bumps null)")
     map_pose_in_truth: Optional[List[float]] = param(
         None, "[m, m, rad] the explored map's frame in the truth frame (unset: the robot's "
               "start pose)", length=3)

@@ -68,7 +68,7 @@ class Monitor:
         self.map_msg = self.truth_msg = self.start = None
         self.record = None
         self.pending_poses, self.pending_goals = [], []
-        self.bumps = 0
+        self.bumps = 0 if p.count_bumps else None
         self.bumping = False
         self.finished = False
         self.cov_pub = rospy.Publisher("~coverage", Float64, queue_size=1)
@@ -81,7 +81,8 @@ class Monitor:
         rospy.Subscriber("ground_truth/%s/pose" % robot, PoseStamped, self._on_pose,
                          queue_size=20)
         rospy.Subscriber("move_base/goal", MoveBaseActionGoal, self._on_goal, queue_size=10)
-        rospy.Subscriber("sensorPacket", SensorPacket, self._on_sensors, queue_size=20)
+        if p.count_bumps:
+            rospy.Subscriber("sensorPacket", SensorPacket, self._on_sensors, queue_size=20)
         rospy.Subscriber("frontier_explorer/status", String, self._on_status, queue_size=5)
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
         rospy.Timer(rospy.Duration(p.period_s), self._tick)
@@ -205,10 +206,11 @@ class Monitor:
             s = self.record.summary()
             rospy.loginfo_throttle(
                 self.progress_period_s, "exploration_monitor: coverage %5.1f %%  seen %s"
-                "  path %.1f m  goals %s  bumps %d  explorer %s"
+                "  path %.1f m  goals %s  bumps %s  explorer %s"
                 % (100.0 * c, "-" if s.get("seen_coverage") is None
                    else "%5.1f %%" % (100.0 * s["seen_coverage"]), s.get("path_m", 0.0),
-                   s.get("goals", "?"), self.bumps, self.status or "-"))
+                   s.get("goals", "?"), "-" if self.bumps is None else self.bumps,
+                   self.status or "-"))
 
     def _finish(self, reason="shutdown"):
         with self.finish_lock:
