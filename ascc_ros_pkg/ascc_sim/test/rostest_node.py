@@ -3,8 +3,9 @@
 "Node simulator"): the latched ground-truth objects as the world file gives them, the
 scripted people on ground_truth/people (20 Hz), the markers (2 Hz), the static
 map -> odom at the start pose with ~publish_map_to_odom; and, each in a process of its
-own, ~max_sim_time_s ending the launch at that simulated time, and a bad world or
-parameter ending the node with one line that names the file and the problem.
+own, ~max_sim_time_s ending the launch at that simulated time, the wall-clock mode
+(use_sim_time:=false), and a bad world or parameter ending the node with one line that
+names the file and the problem.
 
 Expected values come from the world YAML (read here with PyYAML, not with ascc_sim) and
 the defaults the README states, never from the simulator's own code."""
@@ -367,6 +368,47 @@ class SimulatorNodeTest(unittest.TestCase):
                 sim_time = json.load(f)["sim_time_s"]
             self.assertAlmostEqual(sim_time, 3.0, delta=PHYSICS_DT_S / 2)
         finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+    def test_wall_clock_mode(self):
+        """sim.launch use_sim_time:=false (own master): no /clock, the scans stamped with
+        the wall clock; a real-time factor other than 1 ends the simulator, naming it."""
+        tmp = tempfile.mkdtemp(prefix="ascc_sim_wall_clock_")
+        probe = ("import time, rospy\n"
+                 "from sensor_msgs.msg import LaserScan\n"
+                 "rospy.init_node('wall_clock_probe')\n"
+                 "m = rospy.wait_for_message('scan', LaserScan, timeout=%.0f)\n"
+                 "lag = time.time() - m.header.stamp.to_sec()\n"
+                 "topics = [t for t, _ in rospy.get_published_topics()]\n"
+                 "print('RESULT %%.3f %%s' %% (lag, '/clock' in topics))\n" % PROCESS_TIMEOUT_S)
+        launch = None
+        try:
+            env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % free_port())
+            base = ["roslaunch", "--skip-log-check", "ascc_sim", "sim.launch",
+                    "world:=" + self.world_path, "use_sim_time:=false"]
+            launch = subprocess.Popen(
+                base + ["max_sim_time_s:=60", "link_dir:=" + os.path.join(tmp, "links")],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+                start_new_session=True)
+            rc, out = run([sys.executable, "-c", probe], env=env)
+            self.assertEqual(rc, 0, out[-3000:])
+            words = out.split("RESULT ")[-1].split()
+            lag, clock = float(words[0]), words[1]
+            rospy.loginfo("wall-clock mode: scan received %.3f s after its stamp", lag)
+            self.assertEqual(clock, "False", "a /clock publisher in wall-clock mode")
+            # a stamp on the wall clock, received at once (simulated time would be < 60 s)
+            self.assertLess(abs(lag), 1.0, out[-3000:])
+            os.killpg(launch.pid, 2)
+            launch.wait(timeout=PROCESS_TIMEOUT_S)
+            env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % free_port())
+            rc, out = run(base + ["real_time_factor:=4", "drivers:=false",
+                                  "link_dir:=" + os.path.join(tmp, "links4")], env=env)
+            self.assertIn("~real_time_factor 4: with /use_sim_time false", out)
+            self.assertIn("needs a real-time factor of 1", out)
+        finally:
+            if launch is not None and launch.poll() is None:
+                os.killpg(launch.pid, 15)
+                launch.wait(timeout=30)
             shutil.rmtree(tmp, ignore_errors=True)
 
     def test_bad_input_ends_the_node_with_one_line(self):

@@ -79,9 +79,10 @@ class SimulatorNode:
 
         # /clock is ROS's one global clock topic. Published synchronously: a queued
         # publisher hands every message to a writer thread, ten times the CPU at 100 Hz.
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SyntaxWarning)  # "no queue_size" warning
-            self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
+        if self.sim_time:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", SyntaxWarning)  # "no queue_size" warning
+                self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
         self.scan_pubs = {s.name: rospy.Publisher(M.topic_prefix(s) + "scan", LaserScan,
                                                   queue_size=5) for s in self.specs}
         gt = "ground_truth/"
