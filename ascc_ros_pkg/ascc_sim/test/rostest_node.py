@@ -13,7 +13,6 @@ import json
 import math
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
@@ -28,6 +27,7 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.ports import free_port
 from ascc_common.pose2d import wrap_angle, yaw_of
 from ascc_sim.msg import SimObjectArray
 from ascc_testing.waits import Latest, pose_of, wait_for
@@ -126,12 +126,6 @@ def run(cmd, env=None, timeout_s=PROCESS_TIMEOUT_S):
         raise AssertionError("%s still running after %.0f s; output:\n%s"
                              % (" ".join(cmd), timeout_s, out[-3000:])) from None
     return proc.returncode, out
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
 
 
 class SimulatorNodeTest(unittest.TestCase):

@@ -12,16 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from ascc_common.ports import free_port
+
 pytest.importorskip("PyQt5.QtWidgets", reason="PyQt5 comes from Debian/Ubuntu's python3-pyqt5")
 NODE = Path(__file__).resolve().parents[1] / "nodes" / "operator_gui"
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def port_open(port):
