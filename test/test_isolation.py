@@ -81,12 +81,20 @@ def test_two_isolated_launches_side_by_side_on_loopback():
             assert time.time() < deadline, "the masters did not come up"
             assert all(r.poll() is None for r in runs), "a launch ended"
             time.sleep(1)
-        for u in uris:
+        # a master takes its nodes' registrations some time after it answers (CI saw
+        # only /rosout at the first look): ask until both have theirs, or the deadline
+        waiting = list(uris)
+        while waiting:
             node_list = subprocess.run(
                 ["bash", "-c", "source env.sh; rosnode list"], cwd=ROOT, timeout=60,
-                env=_env(ROS_MASTER_URI=u.geturl(), ROS_IP="127.0.0.1"),
+                env=_env(ROS_MASTER_URI=waiting[0].geturl(), ROS_IP="127.0.0.1"),
                 capture_output=True, text=True).stdout.split()
-            assert "/robot_state_publisher" in node_list, u.geturl()
+            if "/robot_state_publisher" in node_list:
+                waiting.pop(0)
+                continue
+            assert time.time() < deadline, (waiting[0].geturl(), node_list)
+            assert all(r.poll() is None for r in runs), "a launch ended"
+            time.sleep(1)
         other = _other_address()
         if other is None:
             pytest.skip("no non-loopback address to check the binding against")
