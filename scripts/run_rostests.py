@@ -15,7 +15,8 @@ log folder), and its verdict is read from the JUnit XML that rostest and rosunit
 
 Prints a line per file, then `rostest: N files, C cases passed, F failed[, S skipped]`;
 exits 1 if anything failed (also when the selection is empty), 0 otherwise.
-``--summary-file`` writes the counts as JSON for scripts/run_tests.sh.
+``--summary-file`` writes the counts, the failed files and each failure's reason as JSON
+for scripts/run_tests.sh.
 
 ``--jobs 1`` (the default) runs the files one after another, their output live. With
 ``--jobs 2`` a file may run beside another, by what it says of itself in a comment:
@@ -252,7 +253,7 @@ def main(argv=None):
         tests = selected
     results_root = args.results_dir or tempfile.mkdtemp(prefix="ascc_rostest_")
     totals = {"files": len(tests), "files_failed": 0, "cases_passed": 0, "cases_failed": 0,
-              "cases_skipped": 0, "failed_files": []}
+              "cases_skipped": 0, "failed_files": [], "failures": []}
     lines = []
 
     def results_dir_of(i, test_file):
@@ -273,6 +274,7 @@ def main(argv=None):
         if reasons:
             totals["files_failed"] += 1
             totals["failed_files"].append(test_file)
+            totals["failures"].extend("%s: %s" % (test_file, r) for r in reasons)
             line += "".join("\n    FAILED %s" % r for r in reasons)
             line += "\n    results and logs: %s" % results_dir
         print(line, flush=True)

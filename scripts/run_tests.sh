@@ -100,7 +100,18 @@ except (OSError, ValueError, KeyError):
 PY
 )
   [ "$rc" -ne 0 ] && [ "$rt_fail" -eq 0 ] && rt_fail=1
-  [ "$rc" -ne 0 ] && failures+=("rostest: see the rostest results above")
+  # each failed file and case by name, so that the log's last lines say what failed
+  mapfile -t rt_failures < <(python - "$results_dir/summary.json" <<'PY'
+import json, sys
+try:
+    for failure in json.load(open(sys.argv[1]))["failures"]:
+        print("rostest " + failure)
+except (OSError, ValueError, KeyError):
+    pass
+PY
+)
+  failures+=("${rt_failures[@]}")
+  [ "$rc" -ne 0 ] && [ "${#rt_failures[@]}" -eq 0 ] && failures+=("rostest: see the rostest results above")
   passed=$((passed + rt_pass)); failed=$((failed + rt_fail))
   rt_line="rostest $rt_files files, $rt_pass cases passed, $rt_fail failed"
   [ "$rt_skip" -gt 0 ] && rt_line+=", $rt_skip skipped"

@@ -103,6 +103,10 @@ def test_every_way_of_failing_fails_the_run(probe, tmp_path):
     assert (counts["cases_passed"], counts["cases_failed"]) == (2, 4), out
     failed = {os.path.basename(f) for f in counts["failed_files"]}
     assert failed == {"failing.test", "crashing.test", "missing.test", "overtime.test"}
+    # each failure by file and reason, for run_tests.sh's closing lines
+    assert any(f.endswith("failing.test: __main__.Probe.test_fails: 1 != 2")
+               for f in counts["failures"]), counts["failures"]
+    assert {os.path.basename(f.split(": ")[0]) for f in counts["failures"]} == failed
     assert "FAILED __main__.Probe.test_fails: 1 != 2" in out
     assert "[crashing] did not generate test results" in out
     assert "does not exist or is not executable" in out
