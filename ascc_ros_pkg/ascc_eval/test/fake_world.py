@@ -136,8 +136,13 @@ class FakeWorld:
             xy = self.pose
         t.transform.translation.x, t.transform.translation.y = xy
         t.transform.rotation.w = 1.0
-        self.tfb.sendTransform(t)
-        self.pose_pub.publish(self._pose_msg(xy))
+        try:
+            self.tfb.sendTransform(t)
+            self.pose_pub.publish(self._pose_msg(xy))
+        except rospy.ROSException:
+            if not rospy.is_shutdown():
+                raise
+            # the node is shutting down under this timer: its topics are closed
 
     def _publish_stats(self):
         self.stats["pose"] = list(self.pose)
