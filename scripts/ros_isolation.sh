@@ -6,7 +6,8 @@
 #    servers bind to loopback, not to every interface (README, "What ROS 1 exposes").
 # Exports ASCC_OWN_MASTER=1 when it chose the port. Prints nothing.
 if [ -z "${ROS_MASTER_URI:-}" ]; then
-  _ascc_port="$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+  # below the kernel's ephemeral range, where no node's own server can take it first
+  _ascc_port="$(python3 "$(dirname "${BASH_SOURCE[0]}")/../ascc_ros_pkg/ascc_common/src/ascc_common/ports.py")"
   export ROS_MASTER_URI="http://127.0.0.1:${_ascc_port}"
   export ASCC_OWN_MASTER=1
   unset _ascc_port
