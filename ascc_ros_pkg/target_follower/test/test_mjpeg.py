@@ -10,6 +10,7 @@ import time
 
 import pytest
 
+from ascc_common.ports import free_port
 from target_follower import mjpeg
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -134,9 +135,7 @@ def test_404_names_the_status_and_url(fake):
 
 
 def test_connection_refused():
-    with socket.socket() as s:  # a port nobody listens on
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()  # a port nobody listens on
     with pytest.raises(mjpeg.ConnectError, match=str(port)):
         take("http://127.0.0.1:%d/stream" % port, 1)
 

@@ -35,6 +35,7 @@ from PyQt5.QtCore import QTimer  # noqa: E402
 from PyQt5.QtWidgets import QApplication  # noqa: E402
 
 from ascc_common.grid import GridInfo  # noqa: E402
+from ascc_common.ports import free_port  # noqa: E402
 from telepresence.gui.widgets import MapWidget, VideoWidget  # noqa: E402
 from telepresence.gui.window import AdapterSignals  # noqa: E402
 from telepresence.teleop import decode_jpeg, grid_image, percentiles  # noqa: E402
@@ -188,11 +189,7 @@ def bench_stall(app, raw, seconds):
 
 def bench_sim(app, seconds):
     """Glass-to-glass in the simulator: the node's own window and adapter."""
-    import socket
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    uri = "http://127.0.0.1:%d" % s.getsockname()[1]
-    s.close()
+    uri = "http://127.0.0.1:%d" % free_port()
     env = dict(os.environ, ROS_MASTER_URI=uri, ROS_IP="127.0.0.1")
     launch = subprocess.Popen(
         ["roslaunch", os.path.join(ROOT, "launch", "sim", "telepresence.launch"), "gui:=false",

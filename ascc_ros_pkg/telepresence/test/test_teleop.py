@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from ascc_common.grid import GridInfo
+from ascc_common.ports import free_port
 from telepresence.teleop import (
     BACKWARD,
     FORWARD,
@@ -144,11 +145,7 @@ def test_namespace():
 
 
 def test_unreachable_master_is_reported_within_its_timeout():
-    import socket
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()  # nothing listens on it
+    port = free_port()  # nothing listens on it
     ok, text, pid = check_master("http://127.0.0.1:%d/" % port, 0.3)
     assert not ok and pid is None and "unreachable" in text
 
