@@ -90,26 +90,22 @@ if [ "$no_rostest" -eq 0 ]; then
   python scripts/run_rostests.py --results-dir "$results_dir" --summary-file "$results_dir/summary.json" \
     --jobs "${ROSTEST_JOBS:-2}" --filter "${ROSTEST_FILTER:-}" "${test_dirs[@]}"
   rc=$?
-  read -r rt_files rt_pass rt_fail rt_skip < <(python - "$results_dir/summary.json" <<'PY'
+  # the counts on the first line, then each failed file and case by name, so that the
+  # log's last lines say what failed
+  mapfile -t rt_summary < <(python - "$results_dir/summary.json" <<'PY'
 import json, sys
 try:
     s = json.load(open(sys.argv[1]))
     print(s["files"], s["cases_passed"], s["cases_failed"], s["cases_skipped"])
+    for failure in s.get("failures", []):
+        print("rostest " + failure)
 except (OSError, ValueError, KeyError):
     print(0, 0, 0, 0)
 PY
 )
+  read -r rt_files rt_pass rt_fail rt_skip <<< "${rt_summary[0]}"
+  rt_failures=("${rt_summary[@]:1}")
   [ "$rc" -ne 0 ] && [ "$rt_fail" -eq 0 ] && rt_fail=1
-  # each failed file and case by name, so that the log's last lines say what failed
-  mapfile -t rt_failures < <(python - "$results_dir/summary.json" <<'PY'
-import json, sys
-try:
-    for failure in json.load(open(sys.argv[1]))["failures"]:
-        print("rostest " + failure)
-except (OSError, ValueError, KeyError):
-    pass
-PY
-)
   failures+=("${rt_failures[@]}")
   [ "$rc" -ne 0 ] && [ "${#rt_failures[@]}" -eq 0 ] && failures+=("rostest: see the rostest results above")
   passed=$((passed + rt_pass)); failed=$((failed + rt_fail))
