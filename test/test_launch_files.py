@@ -143,3 +143,32 @@ def test_three_robots_each_have_their_description(rel):
     assert "/robot_description" not in config.params
     config, _ = _check(rel, {})  # without rviz, no description unless asked for
     assert not any(n.package == "robot_state_publisher" for n in config.nodes)
+
+
+def _with_descriptions():
+    """Every case of every file, and description:=true where a file has that argument
+    and no case sets it."""
+    cases = list(_cases())
+    yield from cases
+    for rel in _launch_files():
+        root = ET.parse(os.path.join(ROOT, rel)).getroot()
+        mine = [c.values[1] for c in cases if c.values[0] == rel]
+        if ("description" in {a.get("name") for a in root.findall("arg")}
+                and not any(a.get("description") == "true" for a in mine)):
+            base = dict(mine[0])
+            yield pytest.param(rel, dict(base, description="true"),
+                               id="%s[description:=true]" % rel)
+
+
+@pytest.mark.parametrize("rel, args", list(_with_descriptions()))
+def test_the_laser_frame_has_one_static_publisher(rel, args):
+    """tf2 keeps one parent per frame, the last static transform received: a robot
+    description's layer_3 -> laser and the simulator's base_link -> laser would replace
+    each other, whichever latched last (system_sim.test saw both). A launch that starts
+    both a simulator and a robot_state_publisher turns the simulator's mount off."""
+    config, _ = _check(rel, args)
+    mounts = [k for k, v in config.params.items()
+              if k.endswith("/simulator/publish_laser_mount") and v.value]
+    publishers = [n.namespace + n.name for n in config.nodes
+                  if n.package == "robot_state_publisher"]
+    assert not (mounts and publishers), "%s %s: %s and %s" % (rel, args, mounts, publishers)

@@ -3,7 +3,8 @@
 "Node simulator"): the latched ground-truth objects as the world file gives them, the
 scripted people on ground_truth/people (20 Hz), the markers (2 Hz), the static
 map -> odom at the start pose with ~publish_map_to_odom; and, each in a process of its
-own, ~max_sim_time_s ending the launch at that simulated time, the wall-clock mode
+own, ~max_sim_time_s ending the launch at that simulated time, no base_link -> laser with
+~publish_laser_mount false, the wall-clock mode
 (use_sim_time:=false), and a bad world or parameter ending the node with one line that
 names the file and the problem.
 
@@ -399,6 +400,36 @@ class SimulatorNodeTest(unittest.TestCase):
                                   "link_dir:=" + os.path.join(tmp, "links4")], env=env)
             self.assertIn("~real_time_factor 4: with /use_sim_time false", out)
             self.assertIn("needs a real-time factor of 1", out)
+        finally:
+            if launch is not None and launch.poll() is None:
+                os.killpg(launch.pid, 15)
+                launch.wait(timeout=30)
+            shutil.rmtree(tmp, ignore_errors=True)
+
+    def test_laser_mount_off(self):
+        """sim.launch laser_mount:=false (own master): /tf_static carries map -> odom but
+        no base_link -> laser, which a robot description gives instead."""
+        tmp = tempfile.mkdtemp(prefix="ascc_sim_laser_mount_")
+        probe = ("import rospy\n"
+                 "from tf2_msgs.msg import TFMessage\n"
+                 "rospy.init_node('tf_static_probe')\n"
+                 "m = rospy.wait_for_message('/tf_static', TFMessage, timeout=%.0f)\n"
+                 "print('RESULT ' + ' '.join(t.header.frame_id + '>' + t.child_frame_id\n"
+                 "                           for t in m.transforms))\n" % PROCESS_TIMEOUT_S)
+        launch = None
+        try:
+            env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % free_port())
+            launch = subprocess.Popen(
+                ["roslaunch", "--skip-log-check", "ascc_sim", "sim.launch",
+                 "world:=" + self.world_path, "drivers:=false", "map_to_odom:=true",
+                 "laser_mount:=false", "max_sim_time_s:=60",
+                 "link_dir:=" + os.path.join(tmp, "links")],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+                start_new_session=True)
+            rc, out = run([sys.executable, "-c", probe], env=env)
+            self.assertEqual(rc, 0, out[-3000:])
+            pairs = out.split("RESULT ")[-1].split()
+            self.assertEqual(pairs, ["map>odom"], out[-3000:])
         finally:
             if launch is not None and launch.poll() is None:
                 os.killpg(launch.pid, 15)

@@ -29,6 +29,9 @@ class SimulatorParams:
     real_time_factor: float = param(1.0, "cap on simulated/wall time; 0: as fast as possible")
     seed: int = param(0, "seed of every random draw")
     publish_map_to_odom: bool = param(False, "static map -> <ns>/odom = start pose")
+    publish_laser_mount: bool = param(True, "static <ns>/base_link -> <ns>/laser (the "
+                                            "laser mount of ~robot); false when a robot "
+                                            "description publishes the laser's frame")
     link_dir: Optional[str] = param(None, "directory of the pty links (unset: "
                                           "/tmp/ascc_sim_<pid>)")
     physics_dt_s: float = param(0.01, "[s] physics step", gt=0.0)

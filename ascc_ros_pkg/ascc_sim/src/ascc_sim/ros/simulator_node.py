@@ -104,7 +104,7 @@ class SimulatorNode:
                                           latch=True)
         self.markers = M.MarkerBuilder(self.world, self.map_frame, self.model.radius_m)
         self.static_tf = tf2_ros.StaticTransformBroadcaster()
-        self._publish_static(p.publish_map_to_odom)
+        self._publish_static(p.publish_map_to_odom, p.publish_laser_mount)
 
         if self.sim_time:
             self.runner.every(p.clock_period(), self.on_clock)
@@ -125,13 +125,16 @@ class SimulatorNode:
         the wall clock."""
         return t if self.sim_time else self.runner.stamp_s(t)
 
-    def _publish_static(self, map_to_odom):
+    def _publish_static(self, map_to_odom, laser_mount):
+        # One publisher per frame: tf2 keeps the last static transform of a child, so a
+        # robot description's layer_3 -> laser and ours would replace each other.
         m = self.model
         tfs = []
         for s in self.specs:
             odom, base, laser = M.frame_names(s)
-            tfs.append(M.static_transform(0.0, base, laser, m.laser_x_m, m.laser_y_m,
-                                          m.laser_z_m, m.laser_yaw_rad))
+            if laser_mount:
+                tfs.append(M.static_transform(0.0, base, laser, m.laser_x_m, m.laser_y_m,
+                                              m.laser_z_m, m.laser_yaw_rad))
             if map_to_odom:  # the driver's odom starts at the start pose
                 tfs.append(M.static_transform(0.0, self.map_frame, odom, s.pose.x, s.pose.y,
                                               0.0, s.pose.yaw))
