@@ -18,6 +18,21 @@ def test_occupancy_from_counts_follows_gmapping_rule():
     assert occ.tolist() == [UNKNOWN, FREE, FREE, OCCUPIED, OCCUPIED]
 
 
+@pytest.mark.parametrize("occ_thresh", [0.25, 0.3, 0.65])
+def test_occupancy_table_is_the_rule_for_every_uint8_pair(occ_thresh):
+    """The uint8 lookup gives what the rule gives on wider counts, for all 65536 pairs (0.3:
+    a threshold float32 cannot hold exactly)."""
+    visits, hits = np.divmod(np.arange(1 << 16), 1 << 8)
+    wide = G.occupancy_from_counts(hits.astype(np.int32), visits.astype(np.int32), occ_thresh)
+    fast = G.occupancy_from_counts(hits.astype(np.uint8), visits.astype(np.uint8), occ_thresh)
+    assert fast.dtype == np.int8 and np.array_equal(fast, wide)
+    assert (fast == UNKNOWN).sum() == 256 and (fast == OCCUPIED).any() and (fast == FREE).any()
+    grid = fast.reshape(256, 256)  # and on a 2-D grid, as the mapper calls it
+    assert np.array_equal(G.occupancy_from_counts(
+        (hits % 256).astype(np.uint8).reshape(256, 256),
+        visits.astype(np.uint8).reshape(256, 256), occ_thresh), grid)
+
+
 def test_sample_segments_spacing_and_cells():
     info = GridInfo(0.1, 50, 50, 0.0, 0.0)
     rng = np.random.default_rng(3)

@@ -40,10 +40,10 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from ascc_common.grid import GridInfo
+from ascc_common.grid import OCCUPIED, GridInfo
 from ascc_common.params import param
 from ascc_common.pose2d import compose, wrap_angle
-from ascc_navigation.grid import occupancy_from_counts
+from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
@@ -429,10 +429,9 @@ class ParticleMaps:
 
 
 def _field_table(occ_thresh: float) -> np.ndarray:
-    """Lookup (visits << 8 | hits) -> 0 for occupied cells, 255 otherwise (distance input)."""
-    visits, hits = np.divmod(np.arange(1 << 16), 1 << 8)
-    occupied = (visits > 0) & (hits > occ_thresh * visits)
-    return np.where(occupied, 0, 255).astype(np.uint8)
+    """Lookup (visits << 8 | hits) -> 0 for occupied cells, 255 otherwise (distance input);
+    occupied as in the published map (``count_table``)."""
+    return np.where(count_table(occ_thresh) == OCCUPIED, 0, 255).astype(np.uint8)
 
 
 class _LikelihoodFields:
