@@ -157,6 +157,23 @@ def test_read_paced_finds_a_device_that_hung_up():
     assert not link.is_open and link.failures >= 1
 
 
+def test_read_paced_survives_the_link_closed_by_another_thread():
+    """The driver's shutdown hook (or a service's failed write) closes the link while the
+    reader thread sleeps in read_paced: the read ends with b'' and a recorded failure,
+    not an AttributeError that kills the reader thread."""
+    with open_link(read_timeout_s=0.5) as (master, link):
+        os.write(master, b"ab")
+        time.sleep(0.01)
+
+        def sleep(_s):
+            link.close()  # as another thread would, between two looks at the port
+
+        assert link.read_paced(10, 1000.0, sleep=sleep) == b""
+        assert not link.is_open and link.failures == 1 and "read from" in link.last_error
+        assert link.read_paced(10, 1000.0, sleep=sleep) == b""  # closed: nothing, no error
+        assert link.failures == 1
+
+
 def test_read_paced_follows_a_stream_faster_than_its_nominal_rate():
     """A simulated robot at 4x real time sends 4000 bytes/s where 1000 are nominal: after
     two reads the pacing sleeps a quarter as long (it would otherwise hold back the

@@ -54,15 +54,16 @@ class SerialLink:
     def read(self, max_bytes: int = 4096, min_bytes: int = 1) -> bytes:
         """Bytes available; waits up to the read timeout for ``min_bytes`` of them (returns
         fewer when it expires, b'' when nothing came or the port is closed)."""
-        if self._ser is None:
+        ser = self._ser  # another thread may close the link (and clear _ser) meanwhile
+        if ser is None:
             return b""
         try:
-            first = self._ser.read(max(1, min(min_bytes, max_bytes)))
+            first = ser.read(max(1, min(min_bytes, max_bytes)))
             if not first:
                 return b""
-            waiting = self._ser.in_waiting
+            waiting = ser.in_waiting
             more = min(waiting, max_bytes - len(first))
-            return first + (self._ser.read(more) if more > 0 else b"")
+            return first + (ser.read(more) if more > 0 else b"")
         except (serial.SerialException, OSError, TypeError) as exc:
             # pyserial raises TypeError from inside read() when the fd vanished
             self._fail("read from %s failed: %s" % (self.port, exc))
@@ -80,18 +81,19 @@ class SerialLink:
         simulated robot faster than real time sends its stream faster). When nothing came
         by the timeout, it ends with :meth:`read` (one more read timeout), which also finds
         a device that hung up (it reads as ready with no data)."""
-        if self._ser is None:
+        ser = self._ser  # closed by another thread meanwhile: pyserial raises, caught below
+        if ser is None:
             return b""
         deadline = self._clock() + self.read_timeout_s
         rate = max(rate_bytes_s, self._paced_rate)
         try:
             while True:
-                waiting = self._ser.in_waiting
+                waiting = ser.in_waiting
                 left = deadline - self._clock()
                 if waiting >= min_bytes or left <= 0.0:
                     break
                 sleep(min(left, (min_bytes - waiting) / rate + PACE_MARGIN_S))
-            data = self._ser.read(min(waiting, max_bytes)) if waiting > 0 else \
+            data = ser.read(min(waiting, max_bytes)) if waiting > 0 else \
                 self.read(max_bytes, 1)
         except (serial.SerialException, OSError, TypeError) as exc:
             self._fail("read from %s failed: %s" % (self.port, exc))
@@ -104,10 +106,11 @@ class SerialLink:
         return data
 
     def write(self, data: bytes) -> bool:
-        if self._ser is None:
+        ser = self._ser
+        if ser is None:
             return False
         try:
-            self._ser.write(data)
+            ser.write(data)
             return True
         except (serial.SerialException, OSError, TypeError) as exc:
             # TypeError: pyserial's write when the port is closed under it (at shutdown)
