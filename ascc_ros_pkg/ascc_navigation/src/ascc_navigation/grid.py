@@ -39,7 +39,7 @@ def occupancy_from_counts(hits: np.ndarray, visits: np.ndarray, occ_thresh: floa
 
     ``hits``/``visits`` are integer count arrays of one shape; returns an int8 -1/0/100 grid.
     uint8 counts (the mapper's) are looked up in ``count_table``: one pass over the grid,
-    a third of the time of the comparison (the map is published every few seconds).
+    about a sixth of the comparison's time (the map is published every few seconds).
     """
     if hits.dtype != np.uint8 or visits.dtype != np.uint8:
         return _cell_rule(hits, visits, occ_thresh)
