@@ -9,6 +9,7 @@ A node of a package Debian 12 lacks (urg_node, gmapping, ...) is started through
 ``asccbot_bringup``'s ``run_if_installed``, so it does not fail the load; this test fails
 on a bare ``pkg="urg_node"``.
 """
+import functools
 import glob
 import os
 import xml.etree.ElementTree as ET
@@ -56,11 +57,17 @@ def _launch_files():
     return [os.path.relpath(f, ROOT) for f in files]
 
 
+@functools.lru_cache(maxsize=None)
+def _args_of(rel):
+    """The top-level <arg> elements of a launch file."""
+    return ET.parse(os.path.join(ROOT, rel)).getroot().findall("arg")
+
+
 def _cases():
     for rel in _launch_files():
-        root = ET.parse(os.path.join(ROOT, rel)).getroot()
-        declared = {a.get("name") for a in root.findall("arg")}
-        base = {a.get("name"): REQUIRED[a.get("name")] for a in root.findall("arg")
+        arg_elems = _args_of(rel)
+        declared = {a.get("name") for a in arg_elems}
+        base = {a.get("name"): REQUIRED[a.get("name")] for a in arg_elems
                 if a.get("default") is None and a.get("value") is None}
         base.update({n: "true" for n in ("use_stand_in", "use_stand_ins") if n in declared})
         for extra in [{}] + VARIANTS.get(rel, []):
@@ -89,6 +96,13 @@ def _check(rel, args):
     return config, problems
 
 
+@functools.lru_cache(maxsize=None)
+def _loaded(rel, items):
+    """``_check`` once per file and argument set (``items``: sorted (name, value) pairs);
+    the tests below only read the config."""
+    return _check(rel, dict(items))
+
+
 def test_every_launch_file_is_covered():
     files = _launch_files()
     assert "launch/robot/asccbot.launch" in files and "launch/robot/explore.launch" in files
@@ -98,7 +112,7 @@ def test_every_launch_file_is_covered():
 
 @pytest.mark.parametrize("rel, args", list(_cases()))
 def test_launch_file_loads_with_its_documented_arguments(rel, args):
-    config, problems = _check(rel, args)
+    config, problems = _loaded(rel, tuple(sorted(args.items())))
     assert problems == [], "%s %s" % (rel, args)
     assert config.nodes or config.params, "%s starts nothing" % rel
 
@@ -151,9 +165,8 @@ def _with_descriptions():
     cases = list(_cases())
     yield from cases
     for rel in _launch_files():
-        root = ET.parse(os.path.join(ROOT, rel)).getroot()
         mine = [c.values[1] for c in cases if c.values[0] == rel]
-        if ("description" in {a.get("name") for a in root.findall("arg")}
+        if ("description" in {a.get("name") for a in _args_of(rel)}
                 and not any(a.get("description") == "true" for a in mine)):
             base = dict(mine[0])
             yield pytest.param(rel, dict(base, description="true"),
@@ -166,7 +179,7 @@ def test_the_laser_frame_has_one_static_publisher(rel, args):
     description's layer_3 -> laser and the simulator's base_link -> laser would replace
     each other, whichever latched last (system_sim.test saw both). A launch that starts
     both a simulator and a robot_state_publisher turns the simulator's mount off."""
-    config, _ = _check(rel, args)
+    config, _ = _loaded(rel, tuple(sorted(args.items())))
     mounts = [k for k, v in config.params.items()
               if k.endswith("/simulator/publish_laser_mount") and v.value]
     publishers = [n.namespace + n.name for n in config.nodes

@@ -10,6 +10,7 @@ names the file and the problem.
 
 Expected values come from the world YAML (read here with PyYAML, not with ascc_sim) and
 the defaults the README states, never from the simulator's own code."""
+import contextlib
 import json
 import math
 import os
@@ -127,6 +128,20 @@ def run(cmd, env=None, timeout_s=PROCESS_TIMEOUT_S):
         raise AssertionError("%s still running after %.0f s; output:\n%s"
                              % (" ".join(cmd), timeout_s, out[-3000:])) from None
     return proc.returncode, out
+
+
+@contextlib.contextmanager
+def in_background(cmd, env):
+    """Start ``cmd`` in a process group of its own (output discarded); on leaving, end it
+    (SIGTERM to the group) unless it has ended already."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            env=env, start_new_session=True)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, 15)
+            proc.wait(timeout=30)
 
 
 class SimulatorNodeTest(unittest.TestCase):
@@ -376,34 +391,29 @@ class SimulatorNodeTest(unittest.TestCase):
                  "lag = time.time() - m.header.stamp.to_sec()\n"
                  "topics = [t for t, _ in rospy.get_published_topics()]\n"
                  "print('RESULT %%.3f %%s' %% (lag, '/clock' in topics))\n" % PROCESS_TIMEOUT_S)
-        launch = None
         try:
             env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % free_port())
             base = ["roslaunch", "--skip-log-check", "ascc_sim", "sim.launch",
                     "world:=" + self.world_path, "use_sim_time:=false"]
-            launch = subprocess.Popen(
-                base + ["max_sim_time_s:=60", "link_dir:=" + os.path.join(tmp, "links")],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
-                start_new_session=True)
-            rc, out = run([sys.executable, "-c", probe], env=env)
-            self.assertEqual(rc, 0, out[-3000:])
-            words = out.split("RESULT ")[-1].split()
-            lag, clock = float(words[0]), words[1]
-            rospy.loginfo("wall-clock mode: scan received %.3f s after its stamp", lag)
-            self.assertEqual(clock, "False", "a /clock publisher in wall-clock mode")
-            # a stamp on the wall clock, received at once (simulated time would be < 60 s)
-            self.assertLess(abs(lag), 1.0, out[-3000:])
-            os.killpg(launch.pid, 2)
-            launch.wait(timeout=PROCESS_TIMEOUT_S)
+            with in_background(base + ["max_sim_time_s:=60",
+                                       "link_dir:=" + os.path.join(tmp, "links")],
+                               env) as launch:
+                rc, out = run([sys.executable, "-c", probe], env=env)
+                self.assertEqual(rc, 0, out[-3000:])
+                words = out.split("RESULT ")[-1].split()
+                lag, clock = float(words[0]), words[1]
+                rospy.loginfo("wall-clock mode: scan received %.3f s after its stamp", lag)
+                self.assertEqual(clock, "False", "a /clock publisher in wall-clock mode")
+                # a stamp on the wall clock, received at once (simulated time would be < 60 s)
+                self.assertLess(abs(lag), 1.0, out[-3000:])
+                os.killpg(launch.pid, 2)
+                launch.wait(timeout=PROCESS_TIMEOUT_S)
             env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % free_port())
             rc, out = run(base + ["real_time_factor:=4", "drivers:=false",
                                   "link_dir:=" + os.path.join(tmp, "links4")], env=env)
             self.assertIn("~real_time_factor 4: with /use_sim_time false", out)
             self.assertIn("needs a real-time factor of 1", out)
         finally:
-            if launch is not None and launch.poll() is None:
-                os.killpg(launch.pid, 15)
-                launch.wait(timeout=30)
             shutil.rmtree(tmp, ignore_errors=True)
 
     def test_laser_mount_off(self):
@@ -416,24 +426,18 @@ class SimulatorNodeTest(unittest.TestCase):
                  "m = rospy.wait_for_message('/tf_static', TFMessage, timeout=%.0f)\n"
                  "print('RESULT ' + ' '.join(t.header.frame_id + '>' + t.child_frame_id\n"
                  "                           for t in m.transforms))\n" % PROCESS_TIMEOUT_S)
-        launch = None
         try:
             env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % free_port())
-            launch = subprocess.Popen(
-                ["roslaunch", "--skip-log-check", "ascc_sim", "sim.launch",
-                 "world:=" + self.world_path, "drivers:=false", "map_to_odom:=true",
-                 "laser_mount:=false", "max_sim_time_s:=60",
-                 "link_dir:=" + os.path.join(tmp, "links")],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
-                start_new_session=True)
-            rc, out = run([sys.executable, "-c", probe], env=env)
+            with in_background(["roslaunch", "--skip-log-check", "ascc_sim", "sim.launch",
+                                "world:=" + self.world_path, "drivers:=false",
+                                "map_to_odom:=true", "laser_mount:=false",
+                                "max_sim_time_s:=60",
+                                "link_dir:=" + os.path.join(tmp, "links")], env):
+                rc, out = run([sys.executable, "-c", probe], env=env)
             self.assertEqual(rc, 0, out[-3000:])
             pairs = out.split("RESULT ")[-1].split()
             self.assertEqual(pairs, ["map>odom"], out[-3000:])
         finally:
-            if launch is not None and launch.poll() is None:
-                os.killpg(launch.pid, 15)
-                launch.wait(timeout=30)
             shutil.rmtree(tmp, ignore_errors=True)
 
     def test_bad_input_ends_the_node_with_one_line(self):
