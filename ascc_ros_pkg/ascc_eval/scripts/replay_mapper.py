@@ -17,6 +17,10 @@ filter seed:
     slowly; a glitch of several degrees that comes and goes means odometry stamped at the
     wrong time while the robot turned (a driver starved of CPU reads a backlog late).
 
+With ``--online-every-s S`` it also prints the recorded run's own mapper (``map -> odom`` in
+the bag, composed with the odometry) against the truth every S seconds: position and heading
+error beside the odometry's alone, to see where and when an online map went wrong.
+
 The online mapper sees the same data but has to keep up with the clock: it drops scans whose
 TF arrives more than ``tf_wait_s`` late. ``--drop-late-s`` emulates that from the bag's receive
 times. So a map that is bad online and good in the replay points at the load, not at the
@@ -24,6 +28,7 @@ filter.
 
     python3 scripts/replay_mapper.py RUN.bag [--seeds 0 1] [--set lskip=0] [--drop-late-s 0.5]
         [--out DIR]  (writes the replayed maps as map_server YAML + PGM)
+        [--online-every-s 40] [--seeds]  (no --seeds value: the online track only)
 """
 import argparse
 import math
@@ -61,7 +66,8 @@ GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading dr
 class RunBag:
     """What the replay needs from a run bag, as numpy arrays (times in seconds)."""
 
-    def __init__(self, path, scan_topic="/scan", odom_frame="odom", base_frame="base_link"):
+    def __init__(self, path, scan_topic="/scan", odom_frame="odom", base_frame="base_link",
+                 map_frame="map"):
         from geometry_msgs.msg import PoseStamped
         from nav_msgs.msg import OccupancyGrid
         from rosbags.rosbag1 import Reader
@@ -70,7 +76,7 @@ class RunBag:
 
         self.scans = []      # (stamp, ranges float32)
         self.scan_meta = None  # angle_min, angle_increment, range_min, range_max
-        odom, received, truth = [], [], []
+        odom, received, truth, map_odom = [], [], [], []
         self.mount = None
         self.truth_map = None
         with Reader(path) as reader:
@@ -90,6 +96,9 @@ class RunBag:
                             odom.append((tr.header.stamp.to_sec(), p.x, p.y,
                                          yaw_of(tr.transform.rotation)))
                             received.append(t_ns * 1e-9)
+                        elif tr.header.frame_id == map_frame and tr.child_frame_id == odom_frame:
+                            map_odom.append((tr.header.stamp.to_sec(), p.x, p.y,
+                                             yaw_of(tr.transform.rotation)))
                         elif tr.header.frame_id == base_frame and self.mount is None \
                                 and "laser" in tr.child_frame_id:
                             self.mount = LaserMount.from_transform(
@@ -108,6 +117,10 @@ class RunBag:
         self.odom = np.asarray(odom)[order]
         self.odom_received = np.asarray(received)[order]
         self.truth = np.asarray(truth) if truth else None
+        # the recorded mapper's map -> odom (stamp order; post-dated as gmapping does)
+        self.map_odom = (np.asarray(map_odom)[np.argsort(np.asarray(map_odom)[:, 0],
+                                                           kind="stable")]
+                         if map_odom else None)
 
     def odom_at(self, t, max_gap_s=0.5):
         """Odometry pose (x, y, theta) interpolated at t, or None outside / across a gap."""
@@ -127,6 +140,42 @@ class RunBag:
         f = float(np.clip((t - a[0]) / max(b[0] - a[0], 1e-9), 0.0, 1.0))
         return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
                          a[3] + f * float(wrap_angle(b[3] - a[3]))])
+
+    def map_odom_at(self, t):
+        """The recorded map -> odom in force at t (the last one stamped at or before it;
+        the first before any), or None if the bag has none."""
+        m = self.map_odom
+        if m is None:
+            return None
+        return m[max(int(np.searchsorted(m[:, 0], t, side="right")) - 1, 0), 1:]
+
+    def online_track(self, every_s):
+        """The recorded run's own estimate against the truth every ``every_s`` [s] from the
+        first scan: rows (t, true x, y, theta in the map frame, odometry position error [m],
+        odometry heading error [rad], mapper position error [m], mapper heading error [rad]).
+        The map frame is the odometry frame at the first scan with odometry (as for the
+        replay), placed in the world by the truth there."""
+        if self.truth is None or self.map_odom is None:
+            return []
+        t0 = next((s for s, _ in self.scans if self.odom_at(s) is not None), None)
+        if t0 is None:
+            return []
+        odom0 = self.odom_at(t0)
+        world_from_map = compose(self.truth_at(t0), inverse(odom0))
+        map_from_world = inverse(world_from_map)
+        rows = []
+        for t in np.arange(t0, min(self.odom[-1, 0], self.truth[-1, 0]), every_s):
+            odom = self.odom_at(t)
+            if odom is None:
+                continue
+            true = compose(map_from_world, self.truth_at(t))
+            est = compose(self.map_odom_at(t), odom)
+            rows.append((t - t0, true[0], true[1], true[2],
+                         math.hypot(odom[0] - true[0], odom[1] - true[1]),
+                         float(wrap_angle(odom[2] - true[2])),
+                         math.hypot(est[0] - true[0], est[1] - true[1]),
+                         float(wrap_angle(est[2] - true[2]))))
+        return rows
 
     def tf_lateness(self):
         """Per scan: how long after its stamp the first odometry TF at or after the stamp was
@@ -208,12 +257,16 @@ def known_share(grid, info, truth, tinfo, world_from_map):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("bag")
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0], help="filter seeds")
+    ap.add_argument("--seeds", type=int, nargs="*", default=[0],
+                    help="filter seeds (none: no replay)")
     add_parameter_arguments(ap)
     ap.add_argument("--drop-late-s", type=float, default=0.0,
                     help="skip scans whose odometry TF was received later than this after "
                          "the scan's stamp, as the online node does (its tf_wait_s); 0: off")
     ap.add_argument("--out", default="", help="write each replayed map here (YAML + PGM)")
+    ap.add_argument("--online-every-s", type=float, default=0.0,
+                    help="print the recorded mapper's pose error against the truth every "
+                         "this many seconds of the run; 0: off")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     params = parameters_from_arguments(ap, args)
@@ -232,6 +285,19 @@ def main():
     print("odometry TF received after the scan's stamp: p50 %.2f s, p99 %.2f s; %.1f %% of "
           "scans later than 0.5 s" % (np.median(late), np.percentile(late, 99),
                                       100.0 * np.mean(late > 0.5)))
+    if args.online_every_s > 0:
+        rows = run.online_track(args.online_every_s)
+        if not rows:
+            print("online track: the bag has no map -> odom or no ground truth")
+        else:
+            print("the recorded mapper (map -> odom * odometry) against the truth, map frame:")
+            print("%7s %19s %18s %18s" % ("t [s]", "true x, y [m], th", "odometry err",
+                                          "mapper err"))
+            for t, x, y, th, oe, oh, me, mh in rows:
+                print("%7.0f %7.1f %6.1f %5.2f %9.2fm %7.3f %9.2fm %7.3f"
+                      % (t, x, y, th, oe, oh, me, mh))
+    if not args.seeds:
+        return
     print("%4s %7s %7s %6s %8s %8s %8s %8s %8s %10s" % (
         "seed", "updates", "dropped", "ms", "max_err", "mean_err", "end_err", "max_head",
         "accuracy", "known_free"))

@@ -1,0 +1,108 @@
+"""replay_mapper's reading of the recorded mapper (--online-every-s) on a small synthetic bag
+written with the real rosbag: odometry that drifts in scale and heading, a map -> odom that
+jumps by a known amount, and the truth."""
+import math
+import os
+import sys
+
+import pytest
+
+rosbag = pytest.importorskip("rosbag")
+import rospy  # noqa: E402
+from geometry_msgs.msg import PoseStamped, TransformStamped  # noqa: E402
+from sensor_msgs.msg import LaserScan  # noqa: E402
+from tf2_msgs.msg import TFMessage  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
+import replay_mapper  # noqa: E402
+
+from ascc_common.pose2d import quaternion_from_yaw  # noqa: E402
+
+T0 = 100.0          # [s] bag time of the start
+START = (2.0, 3.0)  # [m] true start in the world, heading 0; the robot drives +x at 1 m/s
+SCALE, DRIFT = 1.01, 0.002   # odometry: 1 % long, 0.002 rad/s heading drift
+JUMP_AT, JUMP_X, JUMP_YAW = 5.0, 0.5, 0.1  # map -> odom: identity, then this from JUMP_AT on
+
+
+def _tf(stamp, parent, child, x, y, yaw):
+    t = TransformStamped()
+    t.header.stamp = rospy.Time.from_sec(stamp)
+    t.header.frame_id, t.child_frame_id = parent, child
+    t.transform.translation.x, t.transform.translation.y = x, y
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+     t.transform.rotation.w) = quaternion_from_yaw(yaw)
+    return t
+
+
+@pytest.fixture(scope="module")
+def bag_path(tmp_path_factory):
+    path = str(tmp_path_factory.mktemp("replay") / "run.bag")
+    with rosbag.Bag(path, "w") as bag:
+        bag.write("/tf_static", TFMessage([_tf(T0, "base_link", "laser", 0.1, 0.0, 0.0)]),
+                  rospy.Time.from_sec(T0))
+        for k in range(0, 101):  # 10 s at 10 Hz
+            t = 0.1 * k
+            now = rospy.Time.from_sec(T0 + t)
+            bag.write("/tf", TFMessage([_tf(T0 + t, "odom", "base_link", SCALE * t, 0.0,
+                                            DRIFT * t)]), now)
+            if k % 5 == 0:
+                jumped = t >= JUMP_AT
+                bag.write("/tf", TFMessage([_tf(T0 + t, "map", "odom", JUMP_X * jumped, 0.0,
+                                                JUMP_YAW * jumped)]), now)
+            truth = PoseStamped()
+            truth.header.stamp = now
+            truth.header.frame_id = "world"
+            truth.pose.position.x, truth.pose.position.y = START[0] + t, START[1]
+            truth.pose.orientation.w = 1.0
+            bag.write("/ground_truth/asccbot/pose", truth, now)
+            if k >= 1:  # the first scan after the first odometry
+                scan = LaserScan()
+                scan.header.stamp = now
+                scan.header.frame_id = "laser"
+                scan.angle_min, scan.angle_increment = -1.0, 0.5
+                scan.range_min, scan.range_max = 0.02, 4.0
+                scan.ranges = [1.0] * 5
+                bag.write("/scan", scan, now)
+    return path
+
+
+def test_online_track_separates_the_mapper_from_the_odometry(bag_path):
+    run = replay_mapper.RunBag(bag_path)
+    rows = run.online_track(1.0)
+    assert len(rows) >= 8
+    assert rows[0][0] == pytest.approx(0.0)  # from the first scan (0.1 s into the bag)
+    first = (SCALE * 0.1, DRIFT * 0.1)  # the odometry there
+    for t, x, y, th, odom_err, odom_head, map_err, map_head in rows:
+        elapsed = t + 0.1  # since the odometry's start
+        # truth in the map frame (the odometry frame, placed by the truth at the first
+        # scan): straight ahead from the odometry's pose there
+        assert x == pytest.approx(first[0] + t * math.cos(first[1]), abs=1e-6)
+        assert y == pytest.approx(t * math.sin(first[1]), abs=1e-6)
+        assert th == pytest.approx(first[1], abs=1e-9)
+        # odometry: 1 % long and turning at DRIFT, relative to its pose at the first scan
+        assert odom_head == pytest.approx(DRIFT * t, abs=1e-6)
+        assert odom_err == pytest.approx(0.01 * t, abs=0.002)
+        if elapsed < JUMP_AT:
+            assert map_err == pytest.approx(odom_err, abs=1e-9)
+            assert map_head == pytest.approx(odom_head, abs=1e-9)
+        else:  # the estimate is map -> odom applied to the odometry's pose
+            ox, oth = SCALE * elapsed, DRIFT * elapsed
+            ex, ey = JUMP_X + ox * math.cos(JUMP_YAW), ox * math.sin(JUMP_YAW)
+            assert map_err == pytest.approx(math.hypot(ex - x, ey - y), abs=1e-6)
+            assert map_head == pytest.approx(oth + JUMP_YAW - th, abs=1e-9)
+
+
+def test_online_track_is_empty_without_map_to_odom(tmp_path):
+    path = str(tmp_path / "no_map.bag")
+    with rosbag.Bag(path, "w") as bag:
+        bag.write("/tf_static", TFMessage([_tf(T0, "base_link", "laser", 0.1, 0.0, 0.0)]),
+                  rospy.Time.from_sec(T0))
+        for k in range(3):
+            now = rospy.Time.from_sec(T0 + 0.1 * k)
+            bag.write("/tf", TFMessage([_tf(T0 + 0.1 * k, "odom", "base_link", 0.1 * k, 0, 0)]),
+                      now)
+            scan = LaserScan(ranges=[1.0], range_max=4.0)
+            scan.header.stamp = now
+            bag.write("/scan", scan, now)
+    assert replay_mapper.RunBag(path).online_track(1.0) == []
