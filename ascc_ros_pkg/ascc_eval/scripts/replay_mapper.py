@@ -118,9 +118,10 @@ class RunBag:
         self.odom_received = np.asarray(received)[order]
         self.truth = np.asarray(truth) if truth else None
         # the recorded mapper's map -> odom (stamp order; post-dated as gmapping does)
-        self.map_odom = (np.asarray(map_odom)[np.argsort(np.asarray(map_odom)[:, 0],
-                                                           kind="stable")]
-                         if map_odom else None)
+        self.map_odom = None
+        if map_odom:
+            m = np.asarray(map_odom)
+            self.map_odom = m[np.argsort(m[:, 0], kind="stable")]
 
     def odom_at(self, t, max_gap_s=0.5):
         """Odometry pose (x, y, theta) interpolated at t, or None outside / across a gap."""
@@ -141,6 +142,11 @@ class RunBag:
         return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
                          a[3] + f * float(wrap_angle(b[3] - a[3]))])
 
+    def world_from_map(self, t, odom):
+        """The map frame (the odometry frame) in the world, placed by the truth at t where
+        the odometry read ``odom``."""
+        return compose(self.truth_at(t), inverse(odom))
+
     def map_odom_at(self, t):
         """The recorded map -> odom in force at t (the last one stamped at or before it;
         the first before any), or None if the bag has none."""
@@ -160,9 +166,7 @@ class RunBag:
         t0 = next((s for s, _ in self.scans if self.odom_at(s) is not None), None)
         if t0 is None:
             return []
-        odom0 = self.odom_at(t0)
-        world_from_map = compose(self.truth_at(t0), inverse(odom0))
-        map_from_world = inverse(world_from_map)
+        map_from_world = inverse(self.world_from_map(t0, self.odom_at(t0)))
         rows = []
         for t in np.arange(t0, min(self.odom[-1, 0], self.truth[-1, 0]), every_s):
             odom = self.odom_at(t)
@@ -220,7 +224,7 @@ def replay(run, params, seed, drop_late_s, late):
         cpu += time.process_time() - c0
         if out.status in (M.STARTED, M.RESET) and run.truth is not None:
             # the map frame is the odometry frame at the first scan
-            world_from_map = compose(run.truth_at(stamp), inverse(odom))
+            world_from_map = run.world_from_map(stamp, odom)
         if out.status == M.UPDATED:
             updates += 1
             if world_from_map is not None:
