@@ -24,7 +24,9 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
     sqrt(updates));
   * simulator worlds: ``ascc_eval.map_quality`` on the final map: the sides of the outer
     outline, map minus floor plan in % ("sides_%"), and the largest corner angle error
-    ("corner"); ``--save DIR`` also writes each map (map_server files) and its overlay PNG.
+    ("corner"); ``--save DIR`` also writes each map (map_server files) and its overlay PNG;
+  * "odom_scale": the true path length over the odometry's: the factor the run's odometry
+    would need (its wheels' scale error; 1 with ``--odometry exact``).
 
 Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
 caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
@@ -183,12 +185,18 @@ def odometry(kind, traj, rng):
     """Odometry along the true trajectory, starting at the true start (so the map frame is
     the world frame). ``sim``: ascc_sim's wheel-encoder model with its configured errors;
     ``harsh``: ``synthetic.noisy_odometry``'s defaults (1 % scale, 3 % noise, 0.01 rad/m
-    heading bias), several times worse."""
+    heading bias), several times worse; ``calibrated``: ``sim`` without the per-run scale
+    error of the wheels (a robot whose wheels were calibrated; the same noise draws as
+    ``sim``); ``exact``: the true poses (what the scan matcher and the filter's own motion
+    noise leave)."""
+    if kind == "exact":
+        return traj[:, :3].copy()
     if kind == "harsh":
         return S.noisy_odometry(traj, rng)
     with open(os.path.join(SIM_WORLDS, "..", "config", "asccbot.yaml")) as f:
         robot = yaml.safe_load(f)
-    return S.wheel_odometry(traj, rng, robot["wheel_base_m"], robot["encoder_scale_sigma"],
+    scale_sigma = 0.0 if kind == "calibrated" else robot["encoder_scale_sigma"]
+    return S.wheel_odometry(traj, rng, robot["wheel_base_m"], scale_sigma,
                             robot["encoder_noise_m_per_sqrt_m"])
 
 
@@ -258,6 +266,8 @@ def run(world, params, seed, odom_kind, save=None):
                                      np.array(odom_poses))
     return {
         "inc": inc, "odom_inc": odom_inc,
+        "odom_scale": float(np.sum(np.hypot(np.diff(traj[:, 0]), np.diff(traj[:, 1])))
+                            / np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1])))),
         "along": max(along), "across": max(across), "sides": sides, "corner": corner,
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
@@ -279,7 +289,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--runs", type=int, default=1, help="seeds per world (seed, seed+1, ...)")
     ap.add_argument("--particles", type=int, default=None, help="override the config")
-    ap.add_argument("--odometry", choices=("sim", "harsh"), default="sim",
+    ap.add_argument("--odometry", choices=("sim", "harsh", "calibrated", "exact"), default="sim",
                     help="odometry error model (see odometry())")
     ap.add_argument("--save", metavar="DIR", help="write the maps and overlays here")
     add_parameter_arguments(ap)
@@ -294,9 +304,10 @@ def main():
         "%s=%s" % kv for kv in sorted(params.items()))))
     columns = ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
                "free", "occ", "known", "end_err", "max_err", "along", "across", "odom", "map",
-               "maps", "ideal", "cpu_s", "inc_mm", "odom_inc_mm", "sides_% corner_deg")
+               "maps", "ideal", "cpu_s", "inc_mm", "odom_inc_mm", "sides_% corner_deg",
+               "odom_scale")
     header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %6s %6s %7s %11s %6s %7s "
-              "%6s %11s %11s  %s" % columns)
+              "%6s %11s %11s  %s  %s" % columns)
     print(header)
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
@@ -306,14 +317,15 @@ def main():
             a = r["acc"]
             print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
                   "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "
-                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f"
+                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f"
                   % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
                      r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
                      100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
                      r["along"], r["across"], r["odom_err"], r["map_m"][0], r["map_m"][1],
                      r["maps_mb"], 100 * r["ideal"], r["cpu_s"], r["inc"][0], r["inc"][1],
                      r["odom_inc"][0], r["odom_inc"][1],
-                     " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"]))
+                     " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"],
+                     r["odom_scale"]))
             sys.stdout.flush()
 
 

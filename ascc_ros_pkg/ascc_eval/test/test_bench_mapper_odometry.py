@@ -1,0 +1,33 @@
+"""bench_mapper.py's odometry models: ``calibrated`` is ``sim`` without the wheels' scale
+error (the same noise draws), ``exact`` the truth (no ROS master needed)."""
+import os
+import sys
+
+import numpy as np
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
+import bench_mapper  # noqa: E402
+
+from ascc_navigation import synthetic as S  # noqa: E402
+
+SEED = 6  # its wheels' scales (config/asccbot.yaml's sigma 0.003) average 1.0042
+
+
+def _length(poses):
+    return float(np.sum(np.hypot(*np.diff(poses[:, :2], axis=0).T)))
+
+
+def test_calibrated_odometry_is_sim_without_the_scale_error():
+    traj = S.waypoint_trajectory([(0.0, 0.0), (40.0, 0.0)], v=0.3, dt=0.1)
+    truth = _length(traj)
+    sim = bench_mapper.odometry("sim", traj, np.random.default_rng(SEED))
+    calibrated = bench_mapper.odometry("calibrated", traj, np.random.default_rng(SEED))
+    scale = 1.0 + 0.003 * np.random.default_rng(SEED).standard_normal(2)  # sim's first draw
+    # the wheel noise over 40 m is ~2 cm (0.004 m per sqrt(m) per wheel): 0.05 %
+    assert _length(sim) / truth == pytest.approx(scale.mean(), abs=1e-3)
+    assert _length(calibrated) / truth == pytest.approx(1.0, abs=1e-3)
+    assert abs(_length(sim) - _length(calibrated)) > 0.1  # 0.42 % of 40 m
+    assert np.array_equal(bench_mapper.odometry("exact", traj, np.random.default_rng(SEED)),
+                          traj[:, :3])
