@@ -85,6 +85,18 @@ def test_core_integrates_frames_and_reports_fields():
     assert b["percentage"] == pytest.approx(2000 / 2700)
 
 
+def test_linear_scale_correction_scales_distance_not_angle_or_raw_fields():
+    core = CreateDriverCore(wheel_base_m=B, linear_scale=0.996)
+    core.on_bytes(b"".join(frame(10, 0) for _ in range(100)), now=1.0)   # 1 m reported
+    assert core.odom.x == pytest.approx(0.996)
+    assert brown_fields(core.values)["distance"] == 10  # sensorPacket: the raw 10 mm per frame
+    core.on_bytes(b"".join(frame(0, 1) for _ in range(90)), now=2.0)
+    assert math.degrees(core.odom.theta) == pytest.approx(90.0)
+    for bad in (0.0, 0.5, 1.6, math.nan):
+        with pytest.raises(ValueError, match="linear_scale"):
+            CreateDriverCore(wheel_base_m=B, linear_scale=bad)
+
+
 def test_corrupt_frames_never_reach_odometry():
     core = CreateDriverCore(wheel_base_m=B)
     bad = bytearray(frame(500, 0))

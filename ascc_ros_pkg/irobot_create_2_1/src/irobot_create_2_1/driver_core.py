@@ -88,6 +88,10 @@ class DriverParams:
                                  ge=1, le=16)
     wheel_base_m: float = param(0.0, "[m] wheel separation; 0: the model's (0.258 / 0.235)",
                                 ge=0.0)
+    odom_linear_scale_correction: float = param(
+        1.0, "[-] factor on the distance the robot reports (its wheels' calibration: true "
+        "distance / odometry's over a measured straight run; the TurtleBot driver's name)",
+        gt=0.5, le=1.5)
     max_wheel_speed_m_s: float = param(0.5, "[m/s] per-wheel limit")
     stop_on_bump: bool = param(True, "a pressed bumper removes forward motion")
     light_bump_speed_m_s: float = param(0.0, "[m/s] create_2: forward speed cap while a "
@@ -110,11 +114,13 @@ class CreateDriverCore:
                  max_wheel_speed_m_s: float = 0.5, resend_period_s: float = 0.5,
                  odometry: Optional[Odometry] = None, robot: RobotModel = CREATE_1,
                  baud: Optional[int] = None, light_bump_speed_m_s: float = 0.0,
-                 stuck_after_s: float = 1.0):
+                 stuck_after_s: float = 1.0, linear_scale: float = 1.0):
         if mode not in ("safe", "full"):
             raise ValueError("mode must be 'safe' or 'full', got %r" % (mode,))
         if cmd_timeout_s <= 0:
             raise ValueError("cmd_timeout_s must be > 0, got %r" % (cmd_timeout_s,))
+        if not 0.5 < linear_scale <= 1.5:
+            raise ValueError("linear_scale must be in (0.5, 1.5], got %r" % (linear_scale,))
         self.robot = robot
         self.wheel_base_m = wheel_base_m or robot.wheel_base_m
         self.baud = baud or robot.baud
@@ -125,6 +131,7 @@ class CreateDriverCore:
         self.resend_period_s = resend_period_s
         self.light_bump_speed_m_s = light_bump_speed_m_s
         self.stuck_after_s = stuck_after_s
+        self.linear_scale = linear_scale  # odometry distance factor (wheel calibration)
         self.parser = protocol.StreamParser(robot.stream_packets, robot.packet_ids)
         self.model_check = ModelCheck(robot, self.baud)
         self._held: List[Tuple[Dict[int, int], float]] = []  # frames while the check runs
@@ -231,7 +238,7 @@ class CreateDriverCore:
             distance_m, dtheta_rad = self.encoders.update(values[43], values[44])
         else:
             return
-        self.odom.update(distance_m, dtheta_rad)
+        self.odom.update(distance_m * self.linear_scale, dtheta_rad)
 
     @property
     def last_frame_stamp(self) -> Optional[float]:

@@ -64,7 +64,8 @@ class CreateDriverNode:
             wheel_base_m=p.wheel_base_m, mode=p.mode, cmd_timeout_s=p.cmd_timeout_s,
             stop_on_bump=p.stop_on_bump, max_wheel_speed_m_s=p.max_wheel_speed_m_s,
             robot=robot_model(p.robot_model), baud=p.baud,
-            light_bump_speed_m_s=p.light_bump_speed_m_s, stuck_after_s=p.stuck_after_s)
+            light_bump_speed_m_s=p.light_bump_speed_m_s, stuck_after_s=p.stuck_after_s,
+            linear_scale=p.odom_linear_scale_correction)
         self.create2 = self.core.robot.encoder_odometry
         # The reader waits for frames_per_read frames at once, sleeping for the time they
         # take at the stream's rate rather than waking on every frame the port delivers:
