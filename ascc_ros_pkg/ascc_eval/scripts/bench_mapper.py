@@ -65,6 +65,8 @@ CONFIG = os.path.join(NAV, "config", "gmapping.yaml")
 SIM_WORLDS = os.path.join(HERE, "..", "..", "ascc_sim", "worlds")
 SCAN_PERIOD_S = 0.1
 FEED_EVERY = 2  # feed every 2nd scan (5 Hz): the node also skips scans when busy
+WALL_RUNS = 10     # --odometry wall: calibrate_odometry runs (its README advises 10) ...
+WALL_RUN_M = 1.5   # ... of its default distance_m
 MIN_CLEARANCE_M = 0.25  # routes keep this far from obstacles (robot radius 0.165 m)
 
 # Loops through each world (world frame, metres); checked against the ground truth.
@@ -185,19 +187,42 @@ def odometry(kind, traj, rng):
     """Odometry along the true trajectory, starting at the true start (so the map frame is
     the world frame). ``sim``: ascc_sim's wheel-encoder model with its configured errors;
     ``harsh``: ``synthetic.noisy_odometry``'s defaults (1 % scale, 3 % noise, 0.01 rad/m
-    heading bias), several times worse; ``calibrated``: ``sim`` without the per-run scale
-    error of the wheels (a robot whose wheels were calibrated; the same noise draws as
-    ``sim``); ``exact``: the true poses (what the scan matcher and the filter's own motion
-    noise leave)."""
+    heading bias), several times worse; ``wall``: ``sim`` (the same draws) corrected by the
+    factor ``calibrate_odometry`` would measure on those wheels (``WALL_RUNS`` runs of
+    ``WALL_RUN_M``), as the driver's ``odom_linear_scale_correction`` applies it;
+    ``calibrated``: ``sim`` without the per-run scale error of the wheels (a perfect
+    calibration; the same noise draws as ``sim``); ``exact``: the true poses (what the scan
+    matcher and the filter's own motion noise leave)."""
     if kind == "exact":
         return traj[:, :3].copy()
     if kind == "harsh":
         return S.noisy_odometry(traj, rng)
     with open(os.path.join(SIM_WORLDS, "..", "config", "asccbot.yaml")) as f:
         robot = yaml.safe_load(f)
-    scale_sigma = 0.0 if kind == "calibrated" else robot["encoder_scale_sigma"]
-    return S.wheel_odometry(traj, rng, robot["wheel_base_m"], scale_sigma,
-                            robot["encoder_noise_m_per_sqrt_m"])
+    base, noise = robot["wheel_base_m"], robot["encoder_noise_m_per_sqrt_m"]
+    if kind == "calibrated":
+        return S.wheel_odometry(traj, rng, base, 0.0, noise)
+    scale = 1.0 + robot["encoder_scale_sigma"] * rng.standard_normal(2)  # sim's first draw
+    odom = S.wheel_odometry(traj, rng, base, noise_k=noise, scale=scale)
+    if kind == "sim":
+        return odom
+    # "wall": the same wheels, corrected by irobot_create_2_1's calibrate_odometry (runs of
+    # WALL_RUN_M towards a wall and back): the factor is the true distance over the
+    # odometry's on those runs, as the laser measures it (in ascc_sim's calibration.test
+    # within 0.003 % of the truth, so taken as exact here); the wheels' noise on the runs
+    # is what it leaves.
+    cal_rng = np.random.default_rng(int(rng.integers(2 ** 31)))
+    leg = np.arange(0.0, WALL_RUN_M + 1e-9, 0.15 * SCAN_PERIOD_S)
+    x = np.concatenate([leg if i % 2 == 0 else leg[::-1] for i in range(WALL_RUNS)])
+    runs = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    cal = S.wheel_odometry(runs, cal_rng, base, noise_k=noise, scale=scale)
+    factor = (np.sum(np.abs(np.diff(runs[:, 0])))
+              / np.sum(np.hypot(np.diff(cal[:, 0]), np.diff(cal[:, 1]))))
+    inc = relative(odom[:-1], odom[1:]) * [factor, factor, 1.0]
+    out = [odom[0]]
+    for d in inc:  # per time step: integrating the corrected increments as the driver does
+        out.append(compose(out[-1], d))
+    return np.array(out)
 
 
 def increment_errors(truth, estimate, odom, min_step_m=0.1):
@@ -289,8 +314,8 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--runs", type=int, default=1, help="seeds per world (seed, seed+1, ...)")
     ap.add_argument("--particles", type=int, default=None, help="override the config")
-    ap.add_argument("--odometry", choices=("sim", "harsh", "calibrated", "exact"), default="sim",
-                    help="odometry error model (see odometry())")
+    ap.add_argument("--odometry", choices=("sim", "wall", "calibrated", "exact", "harsh"),
+                    default="sim", help="odometry error model (see odometry())")
     ap.add_argument("--save", metavar="DIR", help="write the maps and overlays here")
     add_parameter_arguments(ap)
     args = ap.parse_args()

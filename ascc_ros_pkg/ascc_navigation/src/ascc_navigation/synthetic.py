@@ -8,7 +8,7 @@ The world is an int8 -1/0/100 grid built from rectangles; scans are ray-cast on 
 from __future__ import annotations
 
 import math
-from typing import List, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -132,16 +132,18 @@ def noisy_odometry(true_poses: np.ndarray, rng: np.random.Generator,
 
 def wheel_odometry(true_poses: np.ndarray, rng: np.random.Generator,
                    wheel_base: float = 0.258, scale_sigma: float = 0.003,
-                   noise_k: float = 0.004) -> np.ndarray:
+                   noise_k: float = 0.004, scale: Optional[np.ndarray] = None) -> np.ndarray:
     """Odometry of a differential drive from noisy wheel encoders, the error model of
     ascc_sim (``config/asccbot.yaml``): each wheel's travel is scaled by a calibration error
-    drawn once (std ``scale_sigma``) plus noise of std ``noise_k`` * sqrt(|travel|) [m];
-    increments are integrated on arcs from the first true pose. ``wheel_base`` [m]."""
+    drawn once (std ``scale_sigma``; or the given (left, right) ``scale``, and then nothing
+    is drawn for it) plus noise of std ``noise_k`` * sqrt(|travel|) [m]; increments are
+    integrated on arcs from the first true pose. ``wheel_base`` [m]."""
     inc = relative(true_poses[:-1], true_poses[1:])
     forward = inc[:, 0]
     half_turn = 0.5 * wheel_base * inc[:, 2]
     wheels = np.stack([forward - half_turn, forward + half_turn], axis=1)  # left, right
-    scale = 1.0 + scale_sigma * rng.standard_normal(2)
+    if scale is None:
+        scale = 1.0 + scale_sigma * rng.standard_normal(2)
     wheels = wheels * scale + noise_k * np.sqrt(np.abs(wheels)) * rng.standard_normal(
         wheels.shape)
     dist = wheels.mean(axis=1)
