@@ -47,7 +47,13 @@ class Calibrator:
 
     def on_odom(self, msg):
         q = msg.pose.pose
-        self.pose = (q.position.x, q.position.y, yaw_of(q.orientation))
+        pose = (q.position.x, q.position.y, yaw_of(q.orientation))
+        if not all(math.isfinite(v) for v in pose):
+            # not used: the odometry goes stale and a run in progress is aborted
+            rospy.logwarn_throttle(5.0, "calibrate_odometry: odom pose is not finite: %s",
+                                   pose)
+            return
+        self.pose = pose
         self.pose_time = rospy.get_time()
 
     def on_scan(self, msg):
