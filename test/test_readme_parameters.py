@@ -24,6 +24,7 @@ from ascc_sim.runner import SimulatorParams
 from asccbot_bringup.description import DescriptionParams
 from colloc_fusion.node_params import EstimatorParams, FusionParams
 from frontier_detector.explorer import ExplorerNodeParams
+from irobot_create_2_1.calibration import CalibrationParams
 from irobot_create_2_1.driver_core import DriverParams
 from irobot_create_2_1.square import DriveSquareParams
 from irobot_create_2_1.virtual_create import VirtualCreateParams
@@ -55,7 +56,7 @@ TABLES = {
     "ascc_ros_pkg/colloc_fusion/README.md": [EstimatorParams, FusionParams],
     "ascc_ros_pkg/asccbot_bringup/README.md": [DescriptionParams],
     "ascc_ros_pkg/irobot_create_2_1/README.md": [DriverParams, VirtualCreateParams,
-                                                 DriveSquareParams],
+                                                 DriveSquareParams, CalibrationParams],
     "ascc_ros_pkg/target_follower/README.md": [Q24CameraParams, DetectorNodeParams, ColorParams,
                                                 LogoParams, TargetFollowerParams],
     "ascc_ros_pkg/telepresence/README.md": [VelocityMuxParams, SkeletonSimParams,
