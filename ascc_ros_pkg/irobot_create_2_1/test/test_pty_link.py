@@ -172,3 +172,52 @@ def test_host_commands_reach_the_emulator_while_it_streams(link_path):
             assert parser.bad_checksum == 0
             assert all(f[19] in (1, 2) for f in frames[1:])   # 1.5 mm per frame, carried
 
+
+
+class _SlowFeed:
+    """An emulator whose feed() waits until told to go on (a pump caught mid-way)."""
+
+    def __init__(self):
+        self.inside = threading.Event()
+        self.go_on = threading.Event()
+
+    def feed(self, data):
+        self.inside.set()
+        self.go_on.wait(5.0)
+
+    def read_output(self):
+        return b"\x00" * 8
+
+
+def test_close_from_another_thread_waits_for_a_pump_in_progress(link_path):
+    # The simulator pumps its links in its own thread; a shutdown hook closes them. A close
+    # between the pump's check of the descriptor and its next read gave
+    # "TypeError: 'NoneType' object cannot be interpreted as an integer" in the pump.
+    create = _SlowFeed()
+    link = PtyLink(create, link_path)
+    host = os.open(link.port, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        os.write(host, b"\x80\x83")
+        errors, result = [], []
+
+        def pump():
+            try:
+                result.append(link.pump())
+            except Exception as exc:  # noqa: BLE001 (the test reports it)
+                errors.append(exc)
+        worker = threading.Thread(target=pump)
+        worker.start()
+        assert create.inside.wait(5.0)
+        closer = threading.Thread(target=link.close)
+        closer.start()
+        closer.join(0.2)
+        assert closer.is_alive()          # the close waits for the pump ...
+        create.go_on.set()
+        worker.join(5.0)
+        closer.join(5.0)
+        assert errors == [] and result and result[0][0] == 2  # ... which ends cleanly
+        assert not link.is_open and link.pump() == (0, 0)
+    finally:
+        create.go_on.set()
+        os.close(host)
+        link.close()

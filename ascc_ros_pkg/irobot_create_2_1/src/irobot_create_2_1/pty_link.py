@@ -8,7 +8,9 @@ robot->host bytes are dropped (and counted), as a UART drops them.
 The slave side is put in raw mode (no echo, no CR/LF translation, no signals): without it
 the line discipline would echo the host's commands back as "sensor data" and turn 0x0D
 into 0x0A. Our own slave descriptor stays open for the link's lifetime, so the master never
-sees EIO while no host has the port open.
+sees EIO while no host has the port open. ``pump``, ``inject``, ``close`` and ``reopen``
+hold one lock: a close from another thread (a shutdown hook) waits for a pump in progress
+instead of pulling the descriptor from under it.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import errno
 import fcntl
 import os
+import threading
 import tty
 from typing import Optional, Tuple
 
@@ -35,6 +38,7 @@ class PtyLink:
         self.bytes_out = 0          # robot -> host bytes written
         self.dropped_bytes = 0      # robot -> host bytes lost (buffer full or link closed)
         self.opens = 0
+        self._lock = threading.RLock()
         self._open()
 
     # ------------------------------------------------------------------ public
@@ -59,45 +63,49 @@ class PtyLink:
         Never blocks. Returns (bytes_in, bytes_out) moved by this call. While the link is
         closed the robot's output is drained and dropped (nobody is on the wire).
         """
-        if self._master is None:
-            lost = len(self.create.read_output())
-            self.dropped_bytes += lost
-            return 0, 0
-        n_in = 0
-        while True:
-            data = self._read_master()
-            if not data:
-                break
-            n_in += len(data)
-            self.create.feed(data)
-        self.bytes_in += n_in
-        n_out = self._write_master(self.create.read_output())
-        return n_in, n_out
+        with self._lock:
+            if self._master is None:
+                lost = len(self.create.read_output())
+                self.dropped_bytes += lost
+                return 0, 0
+            n_in = 0
+            while True:
+                data = self._read_master()
+                if not data:
+                    break
+                n_in += len(data)
+                self.create.feed(data)
+            self.bytes_in += n_in
+            n_out = self._write_master(self.create.read_output())
+            return n_in, n_out
 
     def inject(self, data: bytes) -> int:
         """Write raw robot->host bytes (e.g. garbage for tests); returns bytes written."""
-        if self._master is None:
-            self.dropped_bytes += len(data)
-            return 0
-        return self._write_master(bytes(data))
+        with self._lock:
+            if self._master is None:
+                self.dropped_bytes += len(data)
+                return 0
+            return self._write_master(bytes(data))
 
     def close(self) -> None:
         """Close the pty (the host sees a hang-up) and remove our symlink."""
-        if self._master is None:
-            return
-        self._remove_link()
-        for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass                                   # already gone: closing is best effort
-        self._master = self._slave = None
-        self.tty_path = ""
+        with self._lock:
+            if self._master is None:
+                return
+            self._remove_link()
+            for fd in (self._master, self._slave):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass                               # already gone: closing is best effort
+            self._master = self._slave = None
+            self.tty_path = ""
 
     def reopen(self) -> None:
         """A new pty behind the same symlink: a USB-serial adapter unplugged and replugged."""
-        self.close()
-        self._open()
+        with self._lock:
+            self.close()
+            self._open()
 
     def __enter__(self) -> PtyLink:
         return self
