@@ -102,3 +102,33 @@ def test_bad_arguments():
     with pytest.raises(ValueError):
         PacedTimer(0.1, lambda: None, lambda: 1.0, lambda: True, min_sleep_s=0.5,
                    max_sleep_s=0.1, start=False)
+
+
+def test_a_callback_failing_at_shutdown_ends_the_timer_quietly():
+    # rospy's waits raise ROSInterruptException once the node shuts down: that is an end,
+    # not an error (it printed a traceback at every rostest's shutdown before)
+    clock = FakeClock(rate=1.0, step=0.01, start=1.0)
+    state = {"down": False, "calls": 0}
+
+    def cb():
+        state["calls"] += 1
+        if state["calls"] == 3:
+            state["down"] = True
+            raise RuntimeError("shutting down")
+
+    timer = PacedTimer(0.1, cb, clock.now, lambda: state["down"], sleep=clock.sleep,
+                       wall=lambda: clock.wall, start=False)
+    timer.run()                                   # returns, does not raise
+    assert state["calls"] == 3
+
+
+def test_a_callback_failing_while_running_is_not_hidden():
+    clock = FakeClock(rate=1.0, step=0.01, start=1.0)
+
+    def cb():
+        raise RuntimeError("a bug")
+
+    timer = PacedTimer(0.1, cb, clock.now, lambda: clock.wall >= 5.0, sleep=clock.sleep,
+                       wall=lambda: clock.wall, start=False)
+    with pytest.raises(RuntimeError, match="a bug"):
+        timer.run()

@@ -17,7 +17,9 @@ test (``rospy.get_time``, ``rospy.is_shutdown``).
 Schedule, as ``rospy.Timer(..., reset=True)``: due times ``start + k * period``; a call
 late by more than a period (a starved process) is not repeated: the schedule restarts
 from now. Time going back (a restarted simulator, a bag loop) restarts it too. Before the
-clock has started (0 under simulated time) nothing is called.
+clock has started (0 under simulated time) nothing is called. A callback that raises while
+the node shuts down (rospy's ``ROSInterruptException`` from a wait) ends the timer quietly;
+at any other time its exception ends the thread with a traceback, as a ``rospy.Timer``'s.
 """
 from __future__ import annotations
 
@@ -110,7 +112,14 @@ class PacedTimer:
             elif clock >= due:
                 due = due + self.period_s if clock < due + self.period_s else clock + self.period_s
                 self.calls += 1
-                self.callback()
+                try:
+                    self.callback()
+                except Exception:
+                    # rospy's waits (a TF lookup with a timeout) raise when the node shuts
+                    # down: the timer ends quietly then; any other failure is the caller's
+                    if self._stopped or self._is_shutdown():
+                        return
+                    raise
                 if self._stopped or self._is_shutdown():
                     return
                 clock = self._read_clock()
