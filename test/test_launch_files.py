@@ -23,7 +23,7 @@ OFFICE = os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", "office.yaml")
 REQUIRED = {"world": OFFICE, "url": "http://127.0.0.1:9/faststream.jpg", "ns": "robotA",
             "link_dir": "/tmp/ascc_launch_check", "robots": "/", "port": "/tmp/pty_create",
             "frame_prefix": "robotA/", "cmd_timeout_s": "0.5", "robot": "robotA",
-            "x": "1.0", "y": "1.0", "a": "0.0"}
+            "x": "1.0", "y": "1.0", "a": "0.0", "output_file": "/tmp/ascc_calibration.yaml"}
 # Documented argument sets beyond the defaults (the header comments' examples); every set
 # is checked with the stand-ins (use_stand_in(s):=true where the file has that argument).
 VARIANTS = {
@@ -185,3 +185,14 @@ def test_the_laser_frame_has_one_static_publisher(rel, args):
     publishers = [n.namespace + n.name for n in config.nodes
                   if n.package == "robot_state_publisher"]
     assert not (mounts and publishers), "%s %s: %s and %s" % (rel, args, mounts, publishers)
+
+
+def test_explore_demo_loads_a_wheel_calibration_into_the_driver(tmp_path):
+    # what ascc_sim's calibrate.launch writes (calibrate_odometry's ~output_file)
+    path = tmp_path / "calibration_seed0.yaml"
+    path.write_text("odom_linear_scale_correction: 0.99500  # +- 0.00020, 10 runs\n")
+    config, problems = _check("launch/explore_demo.launch", {"odom_calibration": str(path)})
+    assert problems == []
+    assert config.params["/driver/odom_linear_scale_correction"].value == 0.995
+    config, _ = _check("launch/explore_demo.launch", {})
+    assert "/driver/odom_linear_scale_correction" not in config.params

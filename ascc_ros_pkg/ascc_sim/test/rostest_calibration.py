@@ -4,13 +4,16 @@ laser-measured factor (true / odometry distance) must match the one the ground t
 the driver's odometry give over the same runs (their path lengths while it drove), within
 0.1 %: the realised ratio, which the wheels' random noise moves by ~0.1 % over these 4.8 m
 (the laser sees the same runs, so that noise is not an error of the calibration); and the
-wheels' error must be large enough that 1.0 would not pass."""
+wheels' error must be large enough that 1.0 would not pass. The file it writes
+(``~output_file``, YAML the driver's parameters can load) must hold the same factor."""
 import math
+import os
 import sys
 import unittest
 
 import rospy
 import rostest
+import yaml
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
 
@@ -54,6 +57,13 @@ class CalibrationTest(unittest.TestCase):
         self.assertGreater(abs(true_factor - 1.0), 0.003, "the wheels' error is too small "
                            "for this test to tell a calibration from none")
         self.assertAlmostEqual(factor, true_factor, delta=0.001)
+        path = rospy.get_param("~output_file")
+        wait_for(lambda: os.path.exists(path) and os.path.getsize(path) > 0, 10.0,
+                 "calibrate_odometry's output file")
+        with open(path) as f:
+            saved = yaml.safe_load(f)
+        os.remove(path)
+        self.assertAlmostEqual(saved["odom_linear_scale_correction"], factor, delta=1e-5)
 
 
 if __name__ == "__main__":
