@@ -23,11 +23,14 @@ The simulator's real-time factor cap is per world unless `--rtf` is given (DEFAU
 4 everywhere (the corridor ran at 2 while its mapper and navigator needed more CPU than 2
 cores give at 4; since the stack's CPU work, 4 runs there without a collision, see
 docs/results/frontier_detector.md). Long: an office run takes 2-4 minutes of wall time, a
-corridor run about 5.
+corridor run about 5. The simulated wheels have a scale error drawn per seed (an
+uncalibrated robot); `--calibrate` first measures it once per seed with ascc_sim's
+calibrate.launch (about a minute) and explores with the driver's correction loaded.
 
     python ascc_ros_pkg/ascc_eval/scripts/bench_exploration.py \
         [--worlds office lab corridor] [--strategies utility nearest] [--seeds 0 1 2 3 4]
-        [--rtf R] [--max-time-s 4000] [--out output/bench_exploration] [--report-only]
+        [--rtf R] [--max-time-s 4000] [--out output/bench_exploration] [--calibrate]
+        [--report-only]
 """
 import argparse
 import json
@@ -43,12 +46,38 @@ LEVELS = ("0.90", "0.95", "0.99")
 DEFAULT_RTF = {"office": "4", "lab": "4", "corridor": "4"}  # real-time factor cap per world
 
 
-def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
+def calibrate(seed, out, port, timeout_s=600):
+    """The driver's odom_linear_scale_correction for the robot of ``seed``, measured once by
+    ascc_sim's calibrate.launch (irobot_create_2_1's calibrate_odometry at an office wall)
+    and kept in OUT/calibration_seed<seed>.yaml; returns (path, factor), or (None, None)
+    when the calibration wrote nothing (see its launch.log)."""
+    import yaml
+
+    path = os.path.join(out, "calibration_seed%d.yaml" % seed)
+    if not os.path.exists(path):
+        print("  calibrating the wheels of seed %d ..." % seed, flush=True)
+        run_launch(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "launch", "calibrate.launch"),
+                   {"seed": seed, "output_file": path, "real_time_factor": 4},
+                   os.path.join(out, "calibration_seed%d" % seed), port, timeout_s,
+                   "calibration seed %d" % seed)
+    if not os.path.exists(path):
+        return None, None
+    with open(path) as f:
+        return path, float(yaml.safe_load(f)["odom_linear_scale_correction"])
+
+
+def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s, calibrated=False):
     run_dir = os.path.join(out, "%s_%s_seed%d" % (world, strategy, seed))
-    wall = run_launch(os.path.join(ROOT, "launch", "explore_demo.launch"),
-                      {"world": world, "strategy": strategy, "seed": seed,
-                       "real_time_factor": rtf, "output_dir": run_dir,
-                       "max_time_s": max_time_s},
+    launch_args = {"world": world, "strategy": strategy, "seed": seed,
+                   "real_time_factor": rtf, "output_dir": run_dir, "max_time_s": max_time_s}
+    factor = None
+    if calibrated:
+        path, factor = calibrate(seed, out, port)
+        if path is None:
+            return {"world": world, "strategy": strategy, "seed": seed,
+                    "error": "calibration failed"}
+        launch_args["odom_calibration"] = path
+    wall = run_launch(os.path.join(ROOT, "launch", "explore_demo.launch"), launch_args,
                       run_dir, port, timeout_s, "%s/%s/seed %d" % (world, strategy, seed))
     path = os.path.join(run_dir, "summary.json")
     if not os.path.exists(path):
@@ -57,6 +86,7 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s):
     with open(path) as f:
         s = json.load(f)
     return {"world": world, "strategy": strategy, "seed": seed, "wall_s": round(wall, 1),
+            "odom_scale_correction": factor,
             "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
             "time_s": s.get("time_s"), "bumps": s.get("bumps"),
             "end": s.get("end_reason"), "map_ok": map_check(run_dir, world),
@@ -221,6 +251,10 @@ def main(argv=None):
                     help="simulated time after which a run gives up (the monitor ends it)")
     ap.add_argument("--port", type=int, default=0,
                     help="ROS master port of the runs (0: a free one)")
+    ap.add_argument("--calibrate", action="store_true",
+                    help="calibrate each seed's wheels first (ascc_sim calibrate.launch, "
+                         "kept in OUT/calibration_seed<n>.yaml) and explore with the driver "
+                         "corrected, as a lab runs a calibrated robot; default: uncalibrated")
     ap.add_argument("--report-only", action="store_true",
                     help="no runs: print the table of OUT/results.json and redraw the plots")
     args = ap.parse_args(argv)
@@ -254,7 +288,7 @@ def main(argv=None):
                 print("[%d/%d] %s %s seed %d ..." % (i, n, world, strategy, seed), flush=True)
                 rtf = args.rtf or DEFAULT_RTF.get(world, "4")
                 r = run_one(world, strategy, seed, rtf, args.out, args.port,
-                            args.timeout_s, args.max_time_s)
+                            args.timeout_s, args.max_time_s, args.calibrate)
                 r["rtf"] = float(rtf)
                 results = [o for o in results if (o["world"], o["strategy"], o["seed"])
                            != (world, strategy, seed)] + [r]
