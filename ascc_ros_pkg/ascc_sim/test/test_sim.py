@@ -1,6 +1,7 @@
 """The stepping core with the real virtual Create: kinematics, collisions and bumpers,
 encoder noise against ground truth, determinism, scans of other robots and people."""
 import math
+import os
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ from ascc_common.params import ParamError, from_params
 from ascc_sim.grid import GridMap
 from ascc_sim.runner import SimRunner, SimulatorParams
 from ascc_sim.sim import RobotModel, Simulation, integrate_arc, select_robots
-from ascc_sim.world import PersonSpec, Pose2D, RobotSpec, Waypoint, World
+from ascc_sim.world import PersonSpec, Pose2D, RobotSpec, Waypoint, World, load_world
 from irobot_create_2_1 import protocol
 from irobot_create_2_1.models import CREATE_2
 from irobot_create_2_1.virtual_create import VirtualCreate
@@ -318,3 +319,19 @@ def test_simulator_params_clock_period_follows_the_physics_step_unless_set():
     for bad in ({"physics_dt_s": 0}, {"clock_period_s": 0}, {"marker_rate_hz": -1}):
         with pytest.raises(ParamError, match="must be > 0"):
             from_params(SimulatorParams, bad.get)
+
+
+def test_a_seed_draws_the_same_wheels_in_every_one_robot_world():
+    # what launch/calibrate.launch relies on: the calibration world's robot of a seed has
+    # the wheels the corridor's (or the office's) robot of that seed has
+    worlds = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "worlds")
+    model = RobotModel()
+    for seed in (0, 3):
+        scales = []
+        for name in ("calibration", "corridor", "office"):
+            world = load_world(os.path.join(worlds, name + ".yaml"))
+            assert len(world.robots) == 1
+            sim = Simulation(world, {world.robots[0].name: started_create()}, model, seed=seed)
+            scales.append(sim.robots[0].encoder_scale)
+        assert scales[0] == scales[1] == scales[2]
+        assert scales[0] != (1.0, 1.0)
