@@ -192,7 +192,10 @@ def odometry(kind, traj, rng):
     ``WALL_RUN_M``), as the driver's ``odom_linear_scale_correction`` applies it;
     ``calibrated``: ``sim`` without the per-run scale error of the wheels (a perfect
     calibration; the same noise draws as ``sim``); ``exact``: the true poses (what the scan
-    matcher and the filter's own motion noise leave)."""
+    matcher and the filter's own motion noise leave); ``create1``: ``sim`` (the same draws)
+    with the turn reported in whole degrees, the remainder carried, as the Create 1's angle
+    packet reaches the driver from ascc_sim's virtual Create (the heading lags by up to 1
+    deg)."""
     if kind == "exact":
         return traj[:, :3].copy()
     if kind == "harsh":
@@ -203,8 +206,9 @@ def odometry(kind, traj, rng):
     if kind == "calibrated":
         return S.wheel_odometry(traj, rng, base, 0.0, noise)
     scale = 1.0 + robot["encoder_scale_sigma"] * rng.standard_normal(2)  # sim's first draw
-    odom = S.wheel_odometry(traj, rng, base, noise_k=noise, scale=scale)
-    if kind == "sim":
+    unit = math.radians(1.0) if kind == "create1" else 0.0
+    odom = S.wheel_odometry(traj, rng, base, noise_k=noise, scale=scale, angle_unit_rad=unit)
+    if kind in ("sim", "create1"):
         return odom
     # "wall": the same wheels, corrected by irobot_create_2_1's calibrate_odometry (runs of
     # WALL_RUN_M towards a wall and back): the factor is the true distance over the
@@ -314,7 +318,8 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--runs", type=int, default=1, help="seeds per world (seed, seed+1, ...)")
     ap.add_argument("--particles", type=int, default=None, help="override the config")
-    ap.add_argument("--odometry", choices=("sim", "wall", "calibrated", "exact", "harsh"),
+    ap.add_argument("--odometry",
+                    choices=("sim", "wall", "calibrated", "exact", "harsh", "create1"),
                     default="sim", help="odometry error model (see odometry())")
     ap.add_argument("--save", metavar="DIR", help="write the maps and overlays here")
     add_parameter_arguments(ap)

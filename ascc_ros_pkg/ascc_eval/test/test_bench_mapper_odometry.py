@@ -45,3 +45,19 @@ def test_wall_calibration_removes_most_of_the_scale_error():
     assert abs(_length(wall) / truth - 1.0) < 0.0015
     # before the correction, the same noise as sim: the first step's heading error agrees
     assert wall[1, 2] == pytest.approx(sim[1, 2], abs=1e-12)
+
+
+def test_create1_odometry_reports_the_turn_in_whole_degrees():
+    # the same wheels as "sim"; the heading lags the unquantised one by less than a degree
+    # (the remainder is carried, not lost) and moves in whole degrees only
+    traj = S.waypoint_trajectory([(0.0, 0.0), (10.0, 0.0), (10.0, 8.0), (0.0, 8.0)],
+                                 v=0.3, w=0.8, dt=0.1)
+    sim = bench_mapper.odometry("sim", traj, np.random.default_rng(SEED))
+    c1 = bench_mapper.odometry("create1", traj, np.random.default_rng(SEED))
+    lag = np.angle(np.exp(1j * (sim[:, 2] - c1[:, 2])))
+    one = np.radians(1.0)
+    assert np.all(np.abs(lag) < one + 1e-9)
+    assert np.abs(lag).max() > 0.5 * one     # it does lag
+    steps = np.diff(np.unwrap(c1[:, 2])) / one
+    assert np.allclose(steps, np.round(steps), atol=1e-6)
+    assert _length(c1) == pytest.approx(_length(sim), rel=1e-3)

@@ -132,12 +132,16 @@ def noisy_odometry(true_poses: np.ndarray, rng: np.random.Generator,
 
 def wheel_odometry(true_poses: np.ndarray, rng: np.random.Generator,
                    wheel_base: float = 0.258, scale_sigma: float = 0.003,
-                   noise_k: float = 0.004, scale: Optional[np.ndarray] = None) -> np.ndarray:
+                   noise_k: float = 0.004, scale: Optional[np.ndarray] = None,
+                   angle_unit_rad: float = 0.0) -> np.ndarray:
     """Odometry of a differential drive from noisy wheel encoders, the error model of
     ascc_sim (``config/asccbot.yaml``): each wheel's travel is scaled by a calibration error
     drawn once (std ``scale_sigma``; or the given (left, right) ``scale``, and then nothing
     is drawn for it) plus noise of std ``noise_k`` * sqrt(|travel|) [m]; increments are
-    integrated on arcs from the first true pose. ``wheel_base`` [m]."""
+    integrated on arcs from the first true pose. ``wheel_base`` [m]. ``angle_unit_rad`` > 0:
+    the turn is reported in whole units, the remainder carried to the next step, as the
+    Create 1's angle packet (whole degrees: ``math.radians(1)``) in ascc_sim's virtual
+    Create; the odometry's heading then lags its own by up to one unit."""
     inc = relative(true_poses[:-1], true_poses[1:])
     forward = inc[:, 0]
     half_turn = 0.5 * wheel_base * inc[:, 2]
@@ -148,6 +152,12 @@ def wheel_odometry(true_poses: np.ndarray, rng: np.random.Generator,
         wheels.shape)
     dist = wheels.mean(axis=1)
     turn = (wheels[:, 1] - wheels[:, 0]) / wheel_base
+    if angle_unit_rad > 0.0:
+        carried = 0.0
+        for i in range(turn.size):  # sequential: each report carries the last remainder
+            carried += turn[i]
+            turn[i] = math.trunc(carried / angle_unit_rad) * angle_unit_rad
+            carried -= turn[i]
     noisy = np.stack([dist * np.cos(0.5 * turn), dist * np.sin(0.5 * turn), turn], axis=1)
     odom = np.empty_like(true_poses)
     odom[0] = true_poses[0]
