@@ -611,3 +611,30 @@ def test_each_particles_trajectory_rebuilds_its_map_after_resampling():
         np.testing.assert_array_equal(maps.visits[0], slam.maps.visits[p])
     # particles differ: their trajectories are their own
     assert len({tuple(slam.trajectory(particle=p)[-1]) for p in range(cfg.particles)}) > 1
+
+
+@pytest.mark.parametrize("heading", [0.1, 0.1 + math.pi / 2])
+def test_prior_along_holds_the_position_along_the_heading_only(heading):
+    # The office room constrains the pose in every direction; odometry 5 cm off along the
+    # robot's heading stays off under a strong prior_along, 5 cm off across it is corrected.
+    world = S.office_world()
+    true0 = np.array([4.0, 1.8, heading])
+    true1 = P.compose(true0, [0.2, 0.0, 0.02])
+    kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
+    errors = {}
+    for along in (0.0, 100.0):
+        for name, offset in (("along", [0.05, 0.0, 0.0]), ("across", [0.0, 0.05, 0.0])):
+            cfg = R.RbpfConfig(particles=1, xmin=0, ymin=0, xmax=14, ymax=10, srr=0.0,
+                               srt=0.0, str=0.0, stt=0.0, motion_prior=0.0, prior_along=along)
+            slam = R.RbpfSlam(cfg, seed=0)
+            slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+            wrong = P.compose(true1, offset)
+            slam.update(P.relative(true0, wrong), _prepare(_room_scan(true1, world=world), **kw))
+            err = P.relative(true1, slam.best_pose)   # in the robot's frame at true1
+            errors[along, name] = err
+    assert math.hypot(*errors[0.0, "along"][:2]) < 0.015     # the scan alone corrects both
+    assert math.hypot(*errors[0.0, "across"][:2]) < 0.015
+    assert errors[100.0, "along"][0] > 0.04                    # held along the heading ...
+    assert math.hypot(*errors[100.0, "across"][:2]) < 0.015    # ... not across it
+    with pytest.raises(ValueError, match="prior_along"):
+        R.RbpfConfig(prior_along=-1.0).validate()

@@ -87,6 +87,11 @@ class RbpfConfig:
     # slide along a direction the scan does not constrain (corridors); 0 disables it.
     motion_prior: float = param(1.0, "[beams per sigma^2] matcher pull to the sampled pose "
                                 "(not gmapping)")
+    # Not in gmapping: an extra pull along the particle's heading only (the direction of
+    # travel, where a corridor's scan is blind and the wheels' distance is good), leaving
+    # the heading and the position across the travel to motion_prior; 0 disables it.
+    prior_along: float = param(0.0, "[beams per sigma^2] extra matcher pull to the sampled "
+                               "pose along the particle's heading only; 0 off (not gmapping)")
     prior_min_xy: float = 0.02      # [m]
     prior_min_theta: float = 0.02   # [rad]
     # Not in gmapping: beams longer than maxUrange - (distance moved + this margin) are not
@@ -138,8 +143,9 @@ class RbpfConfig:
                 raise ValueError("%s must be > 0" % name)
         if not (self.xmax > self.xmin and self.ymax > self.ymin):
             raise ValueError("xmin..xmax and ymin..ymax must be non-empty ranges")
-        if not self.degenerate_info >= 0.0:
-            raise ValueError("degenerate_info must be >= 0")
+        for name in ("degenerate_info", "motion_prior", "prior_along"):
+            if not getattr(self, name) >= 0.0:
+                raise ValueError("%s must be >= 0" % name)
         if not 0.0 <= self.occ_thresh < 1.0:
             raise ValueError("occ_thresh must be in [0, 1)")
         if not (0.0 <= self.recover_score <= 1.0 and self.recover_angle >= 0.0
@@ -653,7 +659,8 @@ class RbpfSlam:
             inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
                                + [max(s_th, cfg.prior_min_theta) ** -2])
             matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var,
-                                              self.poses, np.arange(cfg.particles))
+                                              self.poses, np.arange(cfg.particles),
+                                              along=cfg.prior_along * inv_var[0])
             recovered = np.zeros(cfg.particles, dtype=bool)
             if cfg.recover_score > 0.0:
                 stats.recovered = self._recover(matched, score, pts, recovered)
@@ -738,15 +745,19 @@ class RbpfSlam:
         return int(moved.size)
 
     def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray, prior: np.ndarray,
-                    start: np.ndarray, particles: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+                    start: np.ndarray, particles: np.ndarray,
+                    along: float = 0.0) -> Tuple[np.ndarray, np.ndarray]:
         """gmapping-style greedy search, all given poses at once: try the six moves around the
         current pose; take the best if it improves the objective, else halve that pose's
         steps; stop a pose after ``iterations`` halvings. Pose i starts at start[i] in the map
         of particle particles[i]. Objective: match score minus
-        sum_k prior[k] * (pose_k - start_k)^2. Returns the poses and their match scores."""
+        sum_k prior[k] * (pose_k - start_k)^2 minus along * ((pose - start)_xy . h_i)^2,
+        h_i the unit vector of start[i]'s heading. Returns the poses and their match
+        scores."""
         cfg = self.cfg
         n = start.shape[0]
         pose = start.copy()
+        heading = np.stack([np.cos(start[:, 2]), np.sin(start[:, 2])], axis=-1)
         everyone = np.arange(n)
         score = fields.match_score(fields.distances(pose[:, None, :], particles, pts),
                                    cfg.sigma)[:, 0]
@@ -760,7 +771,10 @@ class RbpfSlam:
                 break
             cand = pose[active, None, :] + _MOVES[None, :, :] * (step[active, None, None] * unit)
             sc = self._candidate_scores(fields, cand, particles[active], pts)
-            obj = sc - ((cand - start[active, None, :]) ** 2 * prior).sum(axis=-1)
+            off = cand - start[active, None, :]
+            obj = sc - (off ** 2 * prior).sum(axis=-1)
+            if along:
+                obj -= along * np.einsum("mkj,mj->mk", off[..., :2], heading[active]) ** 2
             j = np.argmax(obj, axis=1)
             rows = np.arange(active.size)
             better = obj[rows, j] > best[active]
