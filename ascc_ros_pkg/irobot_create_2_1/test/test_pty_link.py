@@ -221,3 +221,33 @@ def test_close_from_another_thread_waits_for_a_pump_in_progress(link_path):
         create.go_on.set()
         os.close(host)
         link.close()
+
+
+class _ClosingFeed:
+    """An emulator whose feed() closes the link, as rospy's SIGINT handler does when it
+    interrupts the simulator's own thread inside a pump (the lock is re-entrant)."""
+
+    def __init__(self):
+        self.link = None
+
+    def feed(self, data):
+        self.link.close()
+
+    def read_output(self):
+        return b"\x00" * 8
+
+
+def test_close_from_a_signal_handler_inside_the_pump_ends_it_cleanly(link_path):
+    # The CI logs showed the pump's TypeError at a rostest's shutdown after the lock above:
+    # the close ran in the pumping thread itself, between two reads of the pump's loop.
+    create = _ClosingFeed()
+    link = PtyLink(create, link_path)
+    create.link = link
+    host = os.open(link.port, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    try:
+        os.write(host, b"\x80\x83")
+        wait_for(lambda: link.pump() != (0, 0) or not link.is_open)
+        assert not link.is_open and link.pump() == (0, 0)
+    finally:
+        os.close(host)
+        link.close()

@@ -10,7 +10,8 @@ the line discipline would echo the host's commands back as "sensor data" and tur
 into 0x0A. Our own slave descriptor stays open for the link's lifetime, so the master never
 sees EIO while no host has the port open. ``pump``, ``inject``, ``close`` and ``reopen``
 hold one lock: a close from another thread (a shutdown hook) waits for a pump in progress
-instead of pulling the descriptor from under it.
+instead of pulling the descriptor from under it; a close from a signal handler in the
+pumping thread itself (rospy's shutdown on SIGINT) ends that pump cleanly.
 """
 
 from __future__ import annotations
@@ -147,6 +148,8 @@ class PtyLink:
             os.unlink(path)
 
     def _read_master(self) -> bytes:
+        if self._master is None:  # closed by a signal handler inside pump (the lock is
+            return b""            # re-entrant, so the same thread's close gets through)
         try:
             return os.read(self._master, READ_CHUNK_BYTES)
         except BlockingIOError:
@@ -158,7 +161,7 @@ class PtyLink:
 
     def _write_master(self, data: bytes) -> int:
         written = 0
-        while written < len(data):
+        while written < len(data) and self._master is not None:
             try:
                 n = os.write(self._master, data[written:])
             except BlockingIOError:
