@@ -12,7 +12,9 @@ about once per period: it aims a tenth of a period past the due time, so that a 
 moving in steps (10 ms with ascc_sim) or at a jittery rate has usually reached it (woken
 early, it sleeps that tenth again, not a spin). A call is thus about a tenth of a period
 late (a rospy.Timer: up to one /clock step). The caller passes the clock and the shutdown
-test (``rospy.get_time``, ``rospy.is_shutdown``).
+test (``rospy.get_time``, ``rospy.core.is_shutdown_requested``: true from the start of
+rospy's shutdown, whose pre-shutdown hooks close the node's publishers while
+``rospy.is_shutdown()`` is still false).
 
 Schedule, as ``rospy.Timer(..., reset=True)``: due times ``start + k * period``; a call
 late by more than a period (a starved process) is not repeated: the schedule restarts

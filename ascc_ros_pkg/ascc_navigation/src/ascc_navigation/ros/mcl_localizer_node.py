@@ -86,7 +86,7 @@ class MclLocalizerNode:
         rospy.Service("request_nomotion_update", Empty, self.on_nomotion_update)
         # not a rospy.Timer: under simulated time that wakes on every /clock message
         self.timer = PacedTimer(p.process_period_s, self.on_timer,
-                                rospy.get_time, rospy.is_shutdown, name="filter")
+                                rospy.get_time, rospy.core.is_shutdown_requested, name="filter")
 
     # -- callbacks: store the newest input -----------------------------------------------
     def on_scan(self, msg):

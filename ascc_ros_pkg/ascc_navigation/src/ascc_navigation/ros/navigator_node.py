@@ -102,7 +102,7 @@ class NavigatorNode:
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
         # message (ascc_common.paced_timer)
         self.timer = PacedTimer(self.period, self.on_timer, rospy.get_time,
-                                rospy.is_shutdown, name="controller")
+                                rospy.core.is_shutdown_requested, name="controller")
         rospy.on_shutdown(self.stop_robot)
 
     # -- callbacks: store the newest input -----------------------------------------------
@@ -175,7 +175,7 @@ class NavigatorNode:
             if old is not None:
                 server.status_timer = PacedTimer(
                     old._period.to_sec(), lambda: server.publish_status_async(None),
-                    rospy.get_time, rospy.is_shutdown, name="move_base_status")
+                    rospy.get_time, rospy.core.is_shutdown_requested, name="move_base_status")
         if old is not None:
             old.shutdown()
 

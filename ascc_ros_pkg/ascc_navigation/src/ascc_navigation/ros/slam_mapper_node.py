@@ -72,10 +72,10 @@ class SlamMapperNode:
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
         # message (ascc_common.paced_timer)
         self.timers = [PacedTimer(p.process_period_s, self.on_process,
-                                  rospy.get_time, rospy.is_shutdown, name="process")]
+                                  rospy.get_time, rospy.core.is_shutdown_requested, name="process")]
         if tf_period > 0.0:
             self.timers.append(PacedTimer(tf_period, self.on_publish_tf,
-                                          rospy.get_time, rospy.is_shutdown,
+                                          rospy.get_time, rospy.core.is_shutdown_requested,
                                           name="map_to_odom"))
 
     # -- callbacks -------------------------------------------------------------------

@@ -74,8 +74,8 @@ class ExplorerNode:
         rospy.loginfo("frontier_explorer: compiled search ready (%.2f s of CPU)" % warm_up())
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock
         # message (ascc_common.paced_timer); a clock that went back restarts it
-        self.timer = PacedTimer(period, self._tick_guarded, rospy.get_time, rospy.is_shutdown,
-                                name="planning")
+        self.timer = PacedTimer(period, self._tick_guarded, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="planning")
 
     def _tick_guarded(self):
         try:
