@@ -46,6 +46,10 @@ LEVELS = ("0.90", "0.95", "0.99")
 DEFAULT_RTF = {"office": "4", "lab": "4", "corridor": "4"}  # real-time factor cap per world
 
 
+# The calibration's speed is fixed: a seed's factor is the same whichever --rtf explores.
+CALIBRATION_RTF = 4
+
+
 def calibrate(seed, out, port, timeout_s=600):
     """The driver's odom_linear_scale_correction for the robot of ``seed``, measured once by
     ascc_sim's calibrate.launch (irobot_create_2_1's calibrate_odometry at an office wall)
@@ -57,7 +61,7 @@ def calibrate(seed, out, port, timeout_s=600):
     if not os.path.exists(path):
         print("  calibrating the wheels of seed %d ..." % seed, flush=True)
         run_launch(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "launch", "calibrate.launch"),
-                   {"seed": seed, "output_file": path, "real_time_factor": 4},
+                   {"seed": seed, "output_file": path, "real_time_factor": CALIBRATION_RTF},
                    os.path.join(out, "calibration_seed%d" % seed), port, timeout_s,
                    "calibration seed %d" % seed)
     if not os.path.exists(path):
@@ -252,9 +256,12 @@ def main(argv=None):
     ap.add_argument("--port", type=int, default=0,
                     help="ROS master port of the runs (0: a free one)")
     ap.add_argument("--calibrate", action="store_true",
-                    help="calibrate each seed's wheels first (ascc_sim calibrate.launch, "
-                         "kept in OUT/calibration_seed<n>.yaml) and explore with the driver "
-                         "corrected, as a lab runs a calibrated robot; default: uncalibrated")
+                    help="calibrate each seed's wheels first (ascc_sim calibrate.launch at "
+                         "real-time factor %g whatever --rtf says, so a seed's factor does "
+                         "not depend on the exploration's speed; kept in "
+                         "OUT/calibration_seed<n>.yaml) and explore with the driver "
+                         "corrected, as a lab runs a calibrated robot; default: uncalibrated"
+                         % CALIBRATION_RTF)
     ap.add_argument("--report-only", action="store_true",
                     help="no runs: print the table of OUT/results.json and redraw the plots")
     args = ap.parse_args(argv)

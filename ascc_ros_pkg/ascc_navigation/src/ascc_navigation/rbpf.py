@@ -757,7 +757,8 @@ class RbpfSlam:
         cfg = self.cfg
         n = start.shape[0]
         pose = start.copy()
-        heading = np.stack([np.cos(start[:, 2]), np.sin(start[:, 2])], axis=-1)
+        heading = (np.stack([np.cos(start[:, 2]), np.sin(start[:, 2])], axis=-1)
+                   if along else None)
         everyone = np.arange(n)
         score = fields.match_score(fields.distances(pose[:, None, :], particles, pts),
                                    cfg.sigma)[:, 0]

@@ -150,9 +150,8 @@ def main():
     try:
         calibrator.run()
     except CalibrationAborted as exc:
-        calibrator.send(0.0)
-        rospy.logerr("calibrate_odometry: aborted, robot stopped: %s", exc)
+        rospy.logerr("calibrate_odometry: aborted, stopping the robot: %s", exc)
         raise SystemExit(1) from exc
     finally:
-        calibrator.send(0.0)
+        calibrator.send(0.0)  # every way out, an abort included, stops the robot
     rospy.sleep(1.0)  # let the latched result reach late subscribers before exiting
