@@ -61,6 +61,7 @@ def _sides(q):
 
 def _outer(q):
     areas = [abs(np.cross(o.vertices, np.roll(o.vertices, -1, axis=0)).sum()) for o in q.outlines]
+    assert q.outer_index() == int(np.argmax(areas))
     return int(np.argmax(areas))
 
 
@@ -76,6 +77,7 @@ def test_undistorted_map_measures_the_plan():
         assert r["plan_deg"] == pytest.approx(90.0, abs=0.05)
     assert q.agreement["accuracy"] == 1.0
     assert q.walls["seen_fraction"] == 1.0 and q.walls["exact"] == 1.0
+    assert q.outer_side_errors_pct() == pytest.approx([0.0] * 4, abs=1e-6)
 
 
 def test_scaled_side_and_rotated_corner_are_measured(tmp_path):
@@ -91,6 +93,9 @@ def test_scaled_side_and_rotated_corner_are_measured(tmp_path):
                           outer.plan_lines]))
     ab = sides[k_ab]
     assert ab["map_m"] / ab["plan_m"] == pytest.approx(1.02, abs=0.002)
+    errors = q.outer_side_errors_pct()
+    assert errors[k_ab] == pytest.approx(2.0, abs=0.2)
+    assert errors == pytest.approx([r["error_pct"] for r in sides])
     # Every corner's map angle equals the drawn polygon's, the one at B is 3 deg off 90.
     diffs = sorted(abs(r["map_deg"] - r["plan_deg"]) for r in sides)
     assert diffs[-1] == pytest.approx(3.0, abs=0.2)

@@ -276,9 +276,24 @@ class Quality:
             lp, lm = o.side_lengths(o.plan_lines), o.side_lengths(o.map_lines)
             ap, am = o.corner_angles_deg(o.plan_lines), o.corner_angles_deg(o.map_lines)
             for k in range(len(o.plan_lines)):
-                rows.append({"outline": i, "side": k, "plan_m": lp[k], "map_m": lm[k],
+                pm, mm = lp[k], lm[k]
+                rows.append({"outline": i, "side": k, "plan_m": pm, "map_m": mm,
+                             "error_pct": (None if pm is None or mm is None or not pm
+                                           else 100.0 * (mm - pm) / pm),
                              "corner": k, "plan_deg": ap[k], "map_deg": am[k]})
         return rows
+
+    def outer_index(self) -> Optional[int]:
+        """Index of the outer boundary: the outline enclosing the largest area."""
+        if not self.outlines:
+            return None
+        return int(np.argmax([abs(_signed_area(o.vertices)) for o in self.outlines]))
+
+    def outer_side_errors_pct(self) -> List[Optional[float]]:
+        """Each side of the outer boundary: map minus plan length, in % of the plan's
+        (None where a side was not measured)."""
+        k = self.outer_index()
+        return [r["error_pct"] for r in self.sides() if r["outline"] == k]
 
 
 def measure(grid: np.ndarray, info: GridInfo, plan: np.ndarray, plan_info: GridInfo,
@@ -319,7 +334,7 @@ def report_lines(q: Quality) -> List[str]:
     for r in q.sides():
         pm, mm, pd, md = r["plan_m"], r["map_m"], r["plan_deg"], r["map_deg"]
         dm = None if pm is None or mm is None else mm - pm
-        dp = None if dm is None or not pm else 100.0 * dm / pm
+        dp = r["error_pct"]
         dd = None if pd is None or md is None else md - pd
         lines.append(f"{r['outline']:7d} {r['side']:4d} {_fmt(pm, '8.2f')} {_fmt(mm, '8.2f')} "
                      f"{_fmt(dm, '7.2f')} {_fmt(dp, '7.2f')}  | {r['corner']:6d} "
