@@ -74,6 +74,8 @@ class VelocityMuxNode:
 
     def on_twist(self, msg, name):
         with self.lock:
+            if rospy.core.is_shutdown_requested():
+                return  # stopped by on_shutdown; rospy is closing the publishers
             t = self._now()
             if not finite_twist(msg):
                 if self.throttle.ready("nan:" + name, t):
@@ -86,10 +88,14 @@ class VelocityMuxNode:
 
     def on_lock(self, msg, name):
         with self.lock:
+            if rospy.core.is_shutdown_requested():
+                return
             self._send(self.mux.on_lock(name, self._now(), msg.data))
 
     def on_timer(self, _event):
         with self.lock:
+            if rospy.core.is_shutdown_requested():
+                return
             self._send(self.mux.tick(self._now()))
 
     def _send(self, out):
@@ -111,8 +117,13 @@ class VelocityMuxNode:
             self.shown_active = self.mux.active
 
     def on_shutdown(self):
-        if self.mux.active != IDLE:
-            self.cmd_pub.publish(Twist())
+        # rospy runs this hook once shutdown is requested and before it closes the
+        # publishers. Under the lock, a callback in progress finishes first, and every later
+        # one sees the request and returns: nothing moves the robot after this stop, and
+        # nothing publishes to a closed topic.
+        with self.lock:
+            if self.mux.active != IDLE:
+                self.cmd_pub.publish(Twist())
 
 
 def _brief(msg):
