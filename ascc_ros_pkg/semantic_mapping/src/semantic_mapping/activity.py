@@ -78,6 +78,12 @@ class RecognizerNodeParams:
                                 "(0: it must exist at start)", ge=0.0)
     waist_sensor: str = param("waist", "name of the waist sensor: wearable/<name>/imu")
     thigh_sensor: str = param("thigh", "name of the thigh sensor: wearable/<name>/imu")
+    silent_after_s: float = param(0.25, "[s] a sensor that has sent nothing for this long "
+                                  "is asleep: its last sample is held (until then the "
+                                  "other's samples wait for its own)", gt=0.0)
+    max_backlog_s: float = param(2.0, "[s] of samples kept per sensor when the recognizer "
+                                 "falls behind (the oldest beyond are dropped, with a "
+                                 "warning)", gt=0.0)
     warn_period_s: float = param(10.0, "[s] each kind of warning at most once per this",
                                  gt=0.0)
 

@@ -12,6 +12,7 @@ Simulator activity names are mapped to the recognizer's by ``ACTIVITY_ALIASES``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple
 
@@ -82,6 +83,35 @@ def script_activity(activities: List[str], durations_s: List[float], t: float) -
             return activity
         t -= d
     return activities[-1]
+
+
+class SampleClock:
+    """The sensors' own clock: sample k is taken at k / ``rate_hz`` [s] after the start,
+    whenever the PC gets round to rendering it. ``due(t)`` returns the times [s] of the
+    samples due by ``t`` that were not yet rendered, oldest first: a late timer tick renders
+    the samples it missed at their own times (a tick's own time would repeat or skip a
+    phase of the motion, and the recognizer's difference-variance features see it). More
+    than ``max_backlog_s`` behind (a jump of simulated time), the older samples are
+    skipped and counted in ``skipped``."""
+
+    def __init__(self, rate_hz: float, max_backlog_s: float = 1.0):
+        self.rate_hz = rate_hz
+        self.max_samples = max(1, int(round(max_backlog_s * rate_hz)))
+        self.next = 0          # index of the next sample to render
+        self.skipped = 0
+
+    def reset(self) -> None:
+        self.next = 0
+
+    def due(self, t: float) -> List[float]:
+        last = int(math.floor(t * self.rate_hz + 1e-9))
+        if last - self.next + 1 > self.max_samples:
+            first = last - self.max_samples + 1
+            self.skipped += first - self.next
+            self.next = first
+        times = [k / self.rate_hz for k in range(self.next, last + 1)]
+        self.next = max(self.next, last + 1)
+        return times
 
 
 @dataclass

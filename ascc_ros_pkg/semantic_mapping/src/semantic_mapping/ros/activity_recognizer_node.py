@@ -1,8 +1,9 @@
 """Node `activity_recognizer`: the recognized activity of the person wearing the motion
 sensors (thesis 5.4.2). Subscribes ``wearable/<waist>/imu`` and ``wearable/<thigh>/imu``,
-keeps the newest acceleration of each (a sensor asleep under the power scheme sends
-nothing: its last sample is held, as in training), feeds both at the model's sample rate
-to `semantic_mapping.activity.OnlineRecognizer`, and publishes one
+pairs their samples into one row per sample period, each sample once and in order
+(`semantic_mapping.alignment.SampleAligner`: a sensor asleep under the power scheme
+sends nothing and its last sample is held, as in training), feeds the rows to
+`semantic_mapping.activity.OnlineRecognizer`, and publishes one
 ``semantic_mapping/Activity`` per window on ``activity``; the room belief's prior
 (``activity_prior``, semantic_mapping/ActivityPrior, from semantic_mapper) weighs the
 posterior (`Recognizer.prior_over_classes`, `Recognizer.apply_prior`). The model is the
@@ -20,6 +21,7 @@ from sensor_msgs.msg import Imu
 
 from ascc_common.params import from_params
 from semantic_mapping.activity import OnlineRecognizer, Recognizer, RecognizerNodeParams
+from semantic_mapping.alignment import SampleAligner
 from semantic_mapping.msg import Activity, ActivityPrior
 from semantic_mapping.ros import run
 
@@ -48,7 +50,9 @@ class ActivityRecognizerNode:
         self.rec = load_model(p.model_path, p.model_wait_s)
         self.online = OnlineRecognizer(self.rec)
         self.lock = threading.Lock()
-        self.latest = {}  # sensor name -> (3,) acceleration [m/s^2]
+        self.aligner = SampleAligner((p.waist_sensor, p.thigh_sensor),
+                                     self.rec.config.rate_hz, p.silent_after_s,
+                                     p.max_backlog_s)
         self.prior = None  # P_t(A) over the recognizer's classes (None: the training prior)
         self.pub = rospy.Publisher("activity", Activity, queue_size=10)
         for name in (p.waist_sensor, p.thigh_sensor):
@@ -61,7 +65,7 @@ class ActivityRecognizerNode:
                       p.model_path, cfg.kind, cfg.features, cfg.window_s, cfg.hop_s)
 
     def on_imu(self, msg, name):
-        """Store the newest acceleration (the work is on the timer)."""
+        """Queue the acceleration (the work is on the timer)."""
         a = msg.linear_acceleration
         value = np.array([a.x, a.y, a.z])
         if not np.all(np.isfinite(value)):
@@ -69,7 +73,12 @@ class ActivityRecognizerNode:
                                    "acceleration from wearable/%s/imu ignored" % name)
             return
         with self.lock:
-            self.latest[name] = value
+            kept = self.aligner.add(name, value, rospy.get_time())
+        if not kept:
+            rospy.logwarn_throttle(self.p.warn_period_s, "activity recognizer: more than "
+                                   "max_backlog_s = %g s of wearable/%s/imu waiting; the "
+                                   "oldest samples are dropped (%d so far)"
+                                   % (self.p.max_backlog_s, name, self.aligner.dropped))
 
     def on_prior(self, msg):
         """The room belief's activity prior (semantic_mapper), over our classes."""
@@ -84,19 +93,20 @@ class ActivityRecognizerNode:
 
     def on_tick(self, _event):
         with self.lock:
-            waist = self.latest.get(self.p.waist_sensor)
-            thigh = self.latest.get(self.p.thigh_sensor)
+            missing = self.aligner.missing()
+            rows = self.aligner.rows(rospy.get_time())
             prior = self.prior
-        if waist is None or thigh is None:
-            missing = [n for n, v in ((self.p.waist_sensor, waist),
-                                      (self.p.thigh_sensor, thigh)) if v is None]
+        if missing:
             rospy.logwarn_throttle(self.p.warn_period_s, "activity recognizer: waiting for "
                                    "%s" % ", ".join("wearable/%s/imu" % n for n in missing))
             return
-        out = self.online.push(waist, thigh, prior)
-        if out is None:
-            return
-        label, probability, posterior = out
+        for waist, thigh in rows:
+            out = self.online.push(waist, thigh, prior)
+            if out is not None:
+                self.publish(*out)
+
+    def publish(self, label, probability, posterior):
+        """One window's result on ``activity``."""
         msg = Activity()
         msg.header.stamp = rospy.Time.now()
         msg.activity = label

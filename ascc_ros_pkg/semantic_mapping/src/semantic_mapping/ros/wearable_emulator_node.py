@@ -1,10 +1,12 @@
 """Node `wearable_emulator`: the two wearable sensor nodes and their XBee link, emulated
 (thesis 5.4.1). Every 1/rate_hz s (ROS time: simulated time in the simulator) it renders a
-sample of the person's activity for each sensor and writes the XBee frames to a
-pseudo-terminal, which `wearable_receiver` opens like the USB port of a real XBee. The
-activity comes from ``ground_truth/people`` (the simulator's scripted person, by name) or
-from a fixed script (``~script_activities``, ``~script_durations_s``). The signal model,
-the sleep/wake scheme and the frames are `semantic_mapping.emulator.Emulator`.
+sample of the person's activity for each sensor, at the sample's own time on the sensors'
+clock (a late tick renders the samples it missed: `semantic_mapping.emulator.SampleClock`),
+and writes the XBee frames to a pseudo-terminal, which `wearable_receiver` opens like the
+USB port of a real XBee. The activity comes from ``ground_truth/people`` (the simulator's
+scripted person, by name) or from a fixed script (``~script_activities``,
+``~script_durations_s``). The signal model, the sleep/wake scheme and the frames are
+`semantic_mapping.emulator.Emulator`.
 Parameters: `semantic_mapping.emulator.EmulatorParams`.
 """
 import threading
@@ -17,7 +19,7 @@ from ascc_common.pose2d import yaw_of
 from ascc_sim.msg import SimObjectArray
 from irobot_create_2_1.pty_link import PtyLink
 from semantic_mapping.body_signals import Person
-from semantic_mapping.emulator import Emulator, EmulatorParams, script_activity
+from semantic_mapping.emulator import Emulator, EmulatorParams, SampleClock, script_activity
 from semantic_mapping.ros import run
 
 
@@ -42,6 +44,7 @@ class WearableEmulatorNode:
         self.lock = threading.Lock()
         self.latest = None  # (activity, heading) of the person, newest ground truth
         self.start = None
+        self.clock = SampleClock(p.rate_hz)
         self.true_pub = rospy.Publisher("~true_activity", String, queue_size=10, latch=True)
         self.last_label = None
         if not p.script_activities:
@@ -68,20 +71,29 @@ class WearableEmulatorNode:
         now = event.current_real if event.current_real else rospy.Time.now()
         if self.start is None or now < self.start:
             self.start = now  # first tick, or simulated time went back
-        t = (now - self.start).to_sec()
-        if self.p.script_activities:
-            activity, heading = script_activity(self.p.script_activities,
-                                                self.p.script_durations_s, t), 0.0
-        else:
+            self.clock.reset()
+        skipped = self.clock.skipped
+        times = self.clock.due((now - self.start).to_sec())
+        if self.clock.skipped > skipped:
+            rospy.logwarn_throttle(10.0, "wearable emulator: %d samples skipped (more than "
+                                   "1 s behind: a jump of time or a stalled node)"
+                                   % (self.clock.skipped - skipped))
+        if not self.p.script_activities:
             with self.lock:
                 latest = self.latest
             if latest is None:
                 return
-            activity, heading = latest
-        data = self.emu.step(t, activity, heading)
+        data = bytearray()
+        for t in times:
+            if self.p.script_activities:
+                activity, heading = script_activity(self.p.script_activities,
+                                                    self.p.script_durations_s, t), 0.0
+            else:
+                activity, heading = latest
+            data += self.emu.step(t, activity, heading)
         self.link.pump()
         if data:
-            self.link.inject(data)
+            self.link.inject(bytes(data))
         if self.emu.segment != self.last_label:
             self.last_label = self.emu.segment
             self.true_pub.publish(String(self.emu.segment))
