@@ -16,7 +16,13 @@ Prints per setting the mean, its standard error and the std [mm], and the share 
 the matcher used. ``--set`` overrides parameters as in ``bench_mapper.py`` (e.g.
 ``--set seen_margin_m=0.2``).
 
+``--bag RUN.bag`` takes the scans, the odometry and the true poses of a recorded run
+instead (``bench_exploration.py``'s run bags, read by ``replay_mapper.RunBag``): the
+exploration's own route, driver and timing. Its updates are those of the shipped mapper
+fed with the bag's odometry; the true poses are the simulator's at each scan's stamp.
+
     python3 scripts/mapper_along_bias.py [--world corridor] [--seed 1] [--set NAME=VALUE]
+    python3 scripts/mapper_along_bias.py --bag RUN.bag [--set NAME=VALUE]
 """
 import argparse
 import math
@@ -56,6 +62,26 @@ def record(world, params, seed):
         if mapper.handle_scan(scan, odom[k], world.mount).map_changed:
             scans.append(mapper._prepare(scan, world.mount))
             truth.append(traj[k].copy())
+    return scans, np.array(truth)
+
+
+def record_bag(path, params):
+    """Scans (prepared) and true poses [world frame] of the filter updates of a recorded
+    run, the mapper fed with the bag's odometry as ``replay_mapper.py`` feeds it."""
+    from replay_mapper import RunBag
+    run = RunBag(path)
+    if run.truth is None:
+        raise SystemExit("%s: no /ground_truth/<robot>/pose" % path)
+    mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=0)
+    scans, truth = [], []
+    for stamp, ranges in run.scans:
+        odom = run.odom_at(stamp)
+        if odom is None:
+            continue
+        scan = M.ScanInput(stamp, ranges, *run.scan_meta)
+        if mapper.handle_scan(scan, odom, run.mount).map_changed:
+            scans.append(mapper._prepare(scan, run.mount))
+            truth.append(run.truth_at(stamp))
     return scans, np.array(truth)
 
 
@@ -107,14 +133,20 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--world", default="corridor", choices=sorted(B.ROUTES))
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--bag", default="", help="a recorded run instead of the world's route")
     B.add_parameter_arguments(ap)
     args = ap.parse_args()
     cv2.setNumThreads(1)
     params = B.parameters_from_arguments(ap, args)
-    world = B.SimWorld(args.world, np.random.default_rng(1000 + args.seed))
-    scans, truth = record(world, params, args.seed)
-    print("%s seed %d, %d updates; matcher correction along the true heading [mm]"
-          % (args.world, args.seed, len(scans)))
+    if args.bag:
+        scans, truth = record_bag(args.bag, params)
+        source = args.bag
+    else:
+        world = B.SimWorld(args.world, np.random.default_rng(1000 + args.seed))
+        scans, truth = record(world, params, args.seed)
+        source = "%s seed %d" % (args.world, args.seed)
+    print("%s, %d updates; matcher correction along the true heading [mm]"
+          % (source, len(scans)))
     for name, fn in (("true-map", true_map), ("exact-odom", exact_odometry)):
         cfg = from_params(M.MapperConfig, dict(params, particles=1, srr=0.0, srt=0.0,
                                                str=0.0, stt=0.0).get).rbpf
