@@ -11,6 +11,10 @@ translating filter update, in two settings:
   * ``exact-odom``: the filter run on its own map, one particle, exact odometry and no
     motion noise; the correction is matched minus predicted pose. Its mean is what would
     add up to a drift, its std the random walk.
+  * ``selection``: the whole filter (its particles and motion noise) with exact
+    odometry; per update the particles' position along the heading weighted by that
+    update's likelihood minus their plain mean: the pull of the choice among the
+    particles, which one particle does not have.
 
 Prints per setting the mean, its standard error and the std [mm], and the share of beams
 the matcher used. ``--set`` overrides parameters as in ``bench_mapper.py`` (e.g.
@@ -129,6 +133,41 @@ def exact_odometry(cfg, scans, truth):
     return np.array(out), float(np.mean(used))
 
 
+def selection(cfg, scans, truth):
+    """The weighting's pull along the travel: in each translating update of the whole
+    filter (exact odometry; the particles and motion noise as configured), the particles'
+    mean position along the true heading weighted by that update's likelihood alone,
+    minus their plain mean. What the choice among the particles adds per update."""
+    import ascc_navigation.rbpf as R
+    slam = RbpfSlam(cfg, seed=0)
+    slam.start(truth[0], scans[0])
+    captured = []
+    original = R._LikelihoodFields.log_likelihood
+
+    def capture(d, lsigma, radius):
+        ll = original(d, lsigma, radius)
+        captured.append((ll / cfg.ogain, slam.poses.copy()))  # the matched poses
+        return ll
+
+    R._LikelihoodFields.log_likelihood = staticmethod(capture)
+    out, used = [], []
+    try:
+        for k in range(1, len(scans)):
+            step = relative(truth[k - 1], truth[k])
+            del captured[:]
+            stats = slam.update(step, scans[k])
+            if captured and math.hypot(step[0], step[1]) > MIN_STEP_M:
+                inc, poses = captured[-1]
+                w = R.normalized_weights(inc)
+                h = truth[k, 2]
+                a = math.cos(h) * poses[:, 0] + math.sin(h) * poses[:, 1]
+                out.append(float(w @ a - a.mean()))
+                used.append(stats.beams / max(scans[k].match.shape[0], 1))
+    finally:
+        R._LikelihoodFields.log_likelihood = original
+    return np.array(out), float(np.mean(used))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--world", default="corridor", choices=sorted(B.ROUTES))
@@ -147,9 +186,10 @@ def main():
         source = "%s seed %d" % (args.world, args.seed)
     print("%s, %d updates; matcher correction along the true heading [mm]"
           % (source, len(scans)))
-    for name, fn in (("true-map", true_map), ("exact-odom", exact_odometry)):
-        cfg = from_params(M.MapperConfig, dict(params, particles=1, srr=0.0, srt=0.0,
-                                               str=0.0, stt=0.0).get).rbpf
+    one = dict(params, particles=1, srr=0.0, srt=0.0, str=0.0, stt=0.0)
+    for name, fn, p in (("true-map", true_map, one), ("exact-odom", exact_odometry, one),
+                        ("selection", selection, params)):
+        cfg = from_params(M.MapperConfig, p.get).rbpf
         c, used = fn(cfg, scans, truth)
         c = 1e3 * c
         print("%-10s mean %+.2f (se %.2f) std %.2f  quartiles %+.1f %+.1f  |c|>10: %.1f %%  "
