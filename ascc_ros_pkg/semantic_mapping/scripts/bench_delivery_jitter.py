@@ -25,7 +25,7 @@ import numpy as np
 
 from semantic_mapping.activity import UNKNOWN, RecognizerConfig, window_features
 from semantic_mapping.alignment import SampleAligner
-from semantic_mapping.body_signals import Person, segments_with_transitions, sensor_signals
+from semantic_mapping.body_signals import Person, render_at, segments_with_transitions
 from semantic_mapping.power import PowerParams, hold_asleep
 from semantic_mapping.training import train
 
@@ -41,15 +41,9 @@ CONFIG = RecognizerConfig(window_s=3.0, features="extended", hidden=(32,),
 def signals(person, segments, t):
     """Both sensors' accelerations at times t, with the power scheme (a sleeping sensor
     sends nothing: its last sample held), as the emulator sends them."""
-    out = []
-    for position in ("waist", "thigh"):
-        a = np.zeros((t.size, 3))
-        for seg in segments:
-            m = (t >= seg.start) & (t < seg.end)
-            if m.any():
-                a[m] = sensor_signals(seg.activity, position, person, t[m], seg.start)[0]
-        out.append(hold_asleep(a, CONFIG.rate_hz, PowerParams()))
-    return out
+    data = render_at(segments, person, t)
+    return [hold_asleep(data["%s_accel" % position], CONFIG.rate_hz, PowerParams())
+            for position in ("waist", "thigh")]
 
 
 def late(times, mean_s, rng):

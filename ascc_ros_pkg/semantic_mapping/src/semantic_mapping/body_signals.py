@@ -270,13 +270,12 @@ def segments_with_transitions(script: Sequence[Tuple[str, float]],
     return out
 
 
-def render(script: Sequence[Tuple[str, float]], person: Person,
-           rate_hz: float = RATE_HZ) -> Dict[str, np.ndarray]:
-    """A whole script rendered at ``rate_hz``: ``t`` (n,), ``label`` (n,) activity names,
-    and per position ``<position>_accel``, ``_gyro``, ``_quat``."""
-    segments = segments_with_transitions(script, person)
-    end = segments[-1].end if segments else 0.0
-    t = np.arange(0.0, end, 1.0 / rate_hz)
+def render_at(segments: Sequence[Segment], person: Person, t: np.ndarray
+              ) -> Dict[str, np.ndarray]:
+    """The segments (``segments_with_transitions``) rendered at the times ``t`` [s] (any
+    times, e.g. late timer ticks): ``t``, ``label`` (n,) activity names (None outside the
+    segments), and per position ``<position>_accel``, ``_gyro``, ``_quat``."""
+    t = np.asarray(t, dtype=float)
     out: Dict[str, np.ndarray] = {"t": t, "label": np.empty(t.size, dtype=object)}
     for position in POSITIONS:
         for k in ("accel", "gyro"):
@@ -291,3 +290,12 @@ def render(script: Sequence[Tuple[str, float]], person: Person,
             out["%s_gyro" % position][m] = g
             out["%s_quat" % position][m] = q
     return out
+
+
+def render(script: Sequence[Tuple[str, float]], person: Person,
+           rate_hz: float = RATE_HZ) -> Dict[str, np.ndarray]:
+    """A whole script rendered at ``rate_hz``: ``t`` (n,), ``label`` (n,) activity names,
+    and per position ``<position>_accel``, ``_gyro``, ``_quat``."""
+    segments = segments_with_transitions(script, person)
+    end = segments[-1].end if segments else 0.0
+    return render_at(segments, person, np.arange(0.0, end, 1.0 / rate_hz))
