@@ -47,7 +47,7 @@ from ascc_common.params import from_params  # noqa: E402
 from ascc_common.pose2d import compose, relative  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
-from ascc_navigation.rbpf import RbpfSlam  # noqa: E402
+from ascc_navigation.rbpf import RbpfSlam, normalized_weights  # noqa: E402
 
 MIN_STEP_M = 0.2  # translating updates only
 
@@ -138,33 +138,19 @@ def selection(cfg, scans, truth):
     filter (exact odometry; the particles and motion noise as configured), the particles'
     mean position along the true heading weighted by that update's likelihood alone,
     minus their plain mean. What the choice among the particles adds per update."""
-    import ascc_navigation.rbpf as R
     slam = RbpfSlam(cfg, seed=0)
     slam.start(truth[0], scans[0])
-    captured = []
-    original = R._LikelihoodFields.log_likelihood
-
-    def capture(d, lsigma, radius):
-        ll = original(d, lsigma, radius)
-        captured.append((ll / cfg.ogain, slam.poses.copy()))  # the matched poses
-        return ll
-
-    R._LikelihoodFields.log_likelihood = staticmethod(capture)
     out, used = [], []
-    try:
-        for k in range(1, len(scans)):
-            step = relative(truth[k - 1], truth[k])
-            del captured[:]
-            stats = slam.update(step, scans[k])
-            if captured and math.hypot(step[0], step[1]) > MIN_STEP_M:
-                inc, poses = captured[-1]
-                w = R.normalized_weights(inc)
-                h = truth[k, 2]
-                a = math.cos(h) * poses[:, 0] + math.sin(h) * poses[:, 1]
-                out.append(float(w @ a - a.mean()))
-                used.append(stats.beams / max(scans[k].match.shape[0], 1))
-    finally:
-        R._LikelihoodFields.log_likelihood = original
+    for k in range(1, len(scans)):
+        step = relative(truth[k - 1], truth[k])
+        stats = slam.update(step, scans[k])
+        if stats.log_gain is not None and math.hypot(step[0], step[1]) > MIN_STEP_M:
+            w = normalized_weights(stats.log_gain)
+            poses = stats.weighed_poses
+            h = truth[k, 2]
+            a = math.cos(h) * poses[:, 0] + math.sin(h) * poses[:, 1]
+            out.append(float(w @ a - a.mean()))
+            used.append(stats.beams / max(scans[k].match.shape[0], 1))
     return np.array(out), float(np.mean(used))
 
 

@@ -292,6 +292,33 @@ def test_scan_matching_corrects_an_odometry_error():
     assert math.hypot(err[0], err[1]) < 0.015 and abs(err[2]) < math.radians(0.5)
 
 
+def test_update_stats_report_the_weighing_before_resampling():
+    world = S.office_world()
+    true0 = np.array([4.0, 1.8, 0.1])
+    true1 = np.array([4.3, 1.85, 0.12])
+    kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
+    for threshold in (0.0, 1.0):  # never / always resample
+        cfg = R.RbpfConfig(particles=6, xmin=0, ymin=0, xmax=14, ymax=10,
+                           resample_threshold=threshold)
+        slam = R.RbpfSlam(cfg, seed=3)
+        slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+        before = slam.log_w.copy()
+        stats = slam.update(P.relative(true0, true1),
+                            _prepare(_room_scan(true1, world=world), **kw))
+        assert stats.log_gain.shape == (6,) and stats.weighed_poses.shape == (6, 3)
+        assert np.ptp(stats.log_gain) > 0.0  # the particles' poses differ, so do their gains
+        if threshold == 0.0:
+            assert not stats.resampled
+            gained = before + stats.log_gain
+            assert np.allclose(slam.log_w, gained - gained.max())
+            assert np.array_equal(slam.poses, stats.weighed_poses)
+        else:
+            assert stats.resampled
+            # every particle after resampling is one of the weighed ones
+            for pose in slam.poses:
+                assert np.any(np.all(stats.weighed_poses == pose, axis=1))
+
+
 @pytest.mark.parametrize("recover_score", [0.0, 0.7])
 def test_wide_heading_search_recovers_a_turn_the_odometry_missed(recover_score):
     # The robot spun 25 degrees more than the odometry says (odometry stamped late while it

@@ -173,6 +173,9 @@ class UpdateStats:
     recovered: int = 0         # particles moved by the wide heading search
     degenerate: int = 0        # particles that kept the prediction in some direction
     grown: bool = False        # the map grew
+    log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
+                                                # / ogain, added to the log weights
+    weighed_poses: Optional[np.ndarray] = None  # (N, 3) the poses weighed (before resampling)
 
 
 def normalized_weights(log_w: np.ndarray) -> np.ndarray:
@@ -677,7 +680,9 @@ class RbpfSlam:
             stats.matched = int(accept.sum())
             stats.mean_score = float(score.mean())
             d = fields.distances(self.poses[:, None, :], np.arange(cfg.particles), pts)[:, 0, :]
-            self.log_w += fields.log_likelihood(d, cfg.lsigma, cfg.match_radius) / cfg.ogain
+            stats.log_gain = fields.log_likelihood(d, cfg.lsigma, cfg.match_radius) / cfg.ogain
+            stats.weighed_poses = self.poses.copy()
+            self.log_w += stats.log_gain
         self.log_w -= self.log_w.max()
         weights = self.weights
         stats.entropy = weight_entropy(weights)
