@@ -319,6 +319,33 @@ def test_update_stats_report_the_weighing_before_resampling():
                 assert np.any(np.all(stats.weighed_poses == pose, axis=1))
 
 
+def test_weight_radius_bounds_each_beams_term_in_the_weights():
+    world = S.office_world()
+    true0 = np.array([4.0, 1.8, 0.1])
+    true1 = np.array([4.3, 1.85, 0.12])
+    kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
+    gains = {}
+    for radius in (-1.0, 0.03):
+        cfg = R.RbpfConfig(particles=2, xmin=0, ymin=0, xmax=14, ymax=10, srr=0.0, srt=0.0,
+                           str=0.0, stt=0.0, resample_threshold=0.0, recover_score=0.0,
+                           minimum_score=1e9, weight_radius_m=radius)  # poses kept
+        slam = R.RbpfSlam(cfg, seed=0)
+        slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+        slam.poses[1] = P.compose(true0, [0.0, 0.0, math.radians(10.0)])  # a wrong particle
+        stats = slam.update(P.relative(true0, true1),
+                            _prepare(_room_scan(true1, world=world), **kw))
+        floor = -stats.beams * cfg.weight_radius ** 2 / (2 * cfg.lsigma ** 2) / cfg.ogain
+        assert np.all(stats.log_gain >= floor - 1e-9)
+        assert stats.log_gain[0] > stats.log_gain[1]  # the right particle still wins
+        gains[radius] = stats.log_gain
+    assert R.RbpfConfig(weight_radius_m=-1.0).weight_radius == R.RbpfConfig().match_radius
+    assert R.RbpfConfig(weight_radius_m=1.0).weight_radius == R.RbpfConfig().match_radius
+    # the wrong particle's beams lie far from its map: the cap takes most of its penalty,
+    # and it still loses by far
+    assert gains[0.03][1] > 0.2 * gains[-1.0][1]
+    assert gains[0.03][1] < gains[0.03][0] - 5.0
+
+
 @pytest.mark.parametrize("recover_score", [0.0, 0.7])
 def test_wide_heading_search_recovers_a_turn_the_odometry_missed(recover_score):
     # The robot spun 25 degrees more than the odometry says (odometry stamped late while it

@@ -13,7 +13,8 @@ One filter update, given the odometry motion since the last update and a prepare
    field capped at ``match_radius``. Beams longer than maxUrange - motion - new_area_margin
    are left out (they reach past what the map holds), and optionally (``seen_margin_m``)
    beams ending beyond what the previous update's scan saw in their direction;
-3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, match_radius)^2 / (2 lsigma^2);
+3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, r_w)^2 / (2 lsigma^2), r_w the match
+   radius or the smaller ``weight_radius_m``;
 4. pose entropy H = -sum w_i log w_i of the normalised weights (published by the node);
 5. selective resampling when N_eff = 1 / sum w_i^2 < resampleThreshold * N (low variance);
 6. map update: every particle registers the scan at its pose into its map.
@@ -109,6 +110,16 @@ class RbpfConfig:
     seen_margin_m: float = param(-1.0, "[m] beams ending more than this beyond what the "
                                  "previous update's scan saw in their direction (occluded, out "
                                  "of view or range) are not matched; <0 off (not gmapping)")
+    # Not in gmapping: the distance at which the weights stop telling beams apart. A beam
+    # ending farther than this from a particle's map (a surface that came into view since
+    # the last update, something not in the map) counts as this far. While the robot
+    # explores, such surfaces lie beyond the mapped ones, so a particle that lags along the
+    # travel finds them nearer to its map and wins the weighting: the corridor's long sides
+    # come out short (ascc_eval/scripts/mapper_along_bias.py, 'selection'). <0: the match
+    # radius, as gmapping's kernel.
+    weight_radius_m: float = param(-1.0, "[m] beam end points farther than this from a "
+                                   "particle's map count as this far in its weight; <0: the "
+                                   "match radius (not gmapping)")
     # Not in gmapping: re-localisation of a particle whose matched scan fits its map badly
     # (fewer than recover_score of the beams, as a fraction of the perfect score): odometry
     # that turned by an unmodelled amount (a wheel slip, odometry stamped late while the
@@ -157,6 +168,13 @@ class RbpfConfig:
     def match_radius(self) -> float:
         """Distance [m] beyond which a beam end point has no match (score 0)."""
         return max(self.kernel_size * self.delta, 3.0 * self.sigma)
+
+    @property
+    def weight_radius(self) -> float:
+        """Distance [m] at which a beam's term in the weights stops growing."""
+        if self.weight_radius_m < 0.0:
+            return self.match_radius
+        return min(self.weight_radius_m, self.match_radius)
 
 
 @dataclass
@@ -680,7 +698,7 @@ class RbpfSlam:
             stats.matched = int(accept.sum())
             stats.mean_score = float(score.mean())
             d = fields.distances(self.poses[:, None, :], np.arange(cfg.particles), pts)[:, 0, :]
-            stats.log_gain = fields.log_likelihood(d, cfg.lsigma, cfg.match_radius) / cfg.ogain
+            stats.log_gain = fields.log_likelihood(d, cfg.lsigma, cfg.weight_radius) / cfg.ogain
             stats.weighed_poses = self.poses.copy()
             self.log_w += stats.log_gain
         self.log_w -= self.log_w.max()
