@@ -89,26 +89,36 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s, calibr
                 "wall_s": wall}
     with open(path) as f:
         s = json.load(f)
+    final = final_map(run_dir)
     return {"world": world, "strategy": strategy, "seed": seed, "wall_s": round(wall, 1),
             "odom_scale_correction": factor,
             "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
             "time_s": s.get("time_s"), "bumps": s.get("bumps"),
-            "end": s.get("end_reason"), "map_ok": map_check(run_dir, world),
-            "sides_pct": side_errors(run_dir, world),
+            "end": s.get("end_reason"), "map_ok": map_check(final, world),
+            "sides_pct": side_errors(final, world),
             "seen": s.get("seen_coverage"),
             "time_to": {lv: s.get("time_to_coverage_s", {}).get(lv) for lv in LEVELS}}
 
 
-def map_check(run_dir, world):
-    """Share of the final SLAM map's known cells that agree with the world's ground truth
-    (cells off the truth's known area count as disagreeing); None without a saved map."""
+def final_map(run_dir):
+    """The run's final SLAM map (grid, GridInfo), saved in the world's frame (map pose
+    (0, 0, 0); report.compose); None without one."""
+    from ascc_common.map_io import load_map
+
+    explored = os.path.join(run_dir, "summary_explored.yaml")
+    return load_map(explored) if os.path.exists(explored) else None
+
+
+def map_check(final, world):
+    """Share of the final SLAM map's (``final_map``) known cells that agree with the
+    world's ground truth (cells off the truth's known area count as disagreeing); None
+    without a saved map."""
     from ascc_common.map_io import load_map
     from ascc_navigation.grid import map_agreement
 
-    explored = os.path.join(run_dir, "summary_explored.yaml")
-    if not os.path.exists(explored):
+    if final is None:
         return None
-    est, est_info = load_map(explored)  # saved in the truth's frame (report.compose)
+    est, est_info = final
     truth, truth_info = load_map(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
                                               "maps", world + ".yaml"))
     a = map_agreement(est, est_info, truth, truth_info)
@@ -121,18 +131,17 @@ def map_check(run_dir, world):
 SIDES_WORLDS = ("corridor", "lab")
 
 
-def side_errors(run_dir, world):
-    """The final SLAM map's outer sides (ascc_eval.map_quality): map minus floor-plan length
-    of each, in % of the plan's; None for a world not in SIDES_WORLDS or without a map."""
-    from ascc_common.map_io import load_map
+def side_errors(final, world):
+    """The final SLAM map's (``final_map``) outer sides (ascc_eval.map_quality): map minus
+    floor-plan length of each, in % of the plan's; None for a world not in SIDES_WORLDS or
+    without a map."""
     from ascc_eval.map_quality import measure
     from ascc_sim.world import load_world
 
-    explored = os.path.join(run_dir, "summary_explored.yaml")
-    if world not in SIDES_WORLDS or not os.path.exists(explored):
+    if world not in SIDES_WORLDS or final is None:
         return None
     w = load_world(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", world + ".yaml"))
-    grid, info = load_map(explored)  # saved in the world's frame: map pose (0, 0, 0)
+    grid, info = final
     start = w.robots[0].pose
     q = measure(grid, info, w.map.occupancy, w.map.info, w.truth_map.occupancy,
                 (start.x, start.y))
@@ -311,10 +320,12 @@ def main(argv=None):
         for r in results:  # runs from before the map check / the seen coverage
             run_dir = os.path.join(args.out, "%s_%s_seed%d" % (r["world"], r["strategy"],
                                                                r["seed"]))
-            if "map_ok" not in r and "error" not in r:
-                r["map_ok"] = map_check(run_dir, r["world"])
-            if "sides_pct" not in r and "error" not in r:
-                r["sides_pct"] = side_errors(run_dir, r["world"])
+            if "error" not in r and ("map_ok" not in r or "sides_pct" not in r):
+                final = final_map(run_dir)
+                if "map_ok" not in r:
+                    r["map_ok"] = map_check(final, r["world"])
+                if "sides_pct" not in r:
+                    r["sides_pct"] = side_errors(final, r["world"])
             if r.get("seen") is None and "error" not in r:
                 print("seen coverage of %s from its bag ..." % run_dir, flush=True)
                 r["seen"] = seen_from_bag(run_dir)
