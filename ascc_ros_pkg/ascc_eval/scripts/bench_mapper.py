@@ -14,7 +14,8 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
     and the odometry's own end error for comparison;
   * "ideal": the accuracy of a map built from the same scans at the true poses of the
     filter updates (what the map building and the measure allow with perfect
-    localisation: the rest of the gap is the pose error's);
+    localisation: the rest of the gap is the pose error's); "ideal_sides_%" that map's
+    sides (below), i.e. what the grid's cell model alone does to them;
   * "along" / "across": the largest pose error along / across the robot's true heading
     (on the corridor: along / across the corridor);
   * "inc_mm": the error of the map's own trajectory (the best particle's poses at the
@@ -279,10 +280,10 @@ def run(world, params, seed, odom_kind, save=None):
     est_grid, est_info = mapper.occupancy()
     acc = map_agreement(est_grid, est_info, world.truth, world.info)
     ideal = rebuild_counts(lambda: ParticleMaps(1, est_info), np.array(true_poses), scans)
-    ideal_acc = map_agreement(ideal.occupancy(0, mapper.cfg.rbpf.occ_thresh), ideal.info,
-                              world.truth, world.info)
+    ideal_grid = ideal.occupancy(0, mapper.cfg.rbpf.occ_thresh)
+    ideal_acc = map_agreement(ideal_grid, ideal.info, world.truth, world.info)
     final = compose(mapper.map_to_odom(), odom[k])
-    sides, corner = [], float("nan")
+    sides, corner, ideal_sides = [], float("nan"), []
     if hasattr(world, "quality"):
         prefix = None
         if save:
@@ -291,6 +292,7 @@ def run(world, params, seed, odom_kind, save=None):
             prefix = os.path.join(save, "%s_seed%d" % (world.name, seed))
             save_map(prefix + ".yaml", est_grid, est_info)
         sides, corner = world.quality(est_grid, est_info, prefix)
+        ideal_sides, _ = world.quality(ideal_grid, ideal.info)
     inc, odom_inc = increment_errors(np.array(true_poses), mapper.slam.trajectory(),
                                      np.array(odom_poses))
     return {
@@ -298,6 +300,7 @@ def run(world, params, seed, odom_kind, save=None):
         "odom_scale": float(np.sum(np.hypot(np.diff(traj[:, 0]), np.diff(traj[:, 1])))
                             / np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1])))),
         "along": max(along), "across": max(across), "sides": sides, "corner": corner,
+        "ideal_sides": ideal_sides,
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
         "ms_max": 1e3 * float(np.max(times)), "ms_wall": 1e3 * float(np.mean(walls)),
@@ -335,9 +338,9 @@ def main():
     columns = ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
                "free", "occ", "known", "end_err", "max_err", "along", "across", "odom", "map",
                "maps", "ideal", "cpu_s", "inc_mm", "odom_inc_mm", "sides_% corner_deg",
-               "odom_scale")
+               "odom_scale", "ideal_sides_%")
     header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %6s %6s %7s %11s %6s %7s "
-              "%6s %11s %11s  %s  %s" % columns)
+              "%6s %11s %11s  %s  %s  %s" % columns)
     print(header)
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
@@ -347,7 +350,7 @@ def main():
             a = r["acc"]
             print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
                   "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "
-                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f"
+                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f  %s"
                   % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
                      r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
                      100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
@@ -355,7 +358,8 @@ def main():
                      r["maps_mb"], 100 * r["ideal"], r["cpu_s"], r["inc"][0], r["inc"][1],
                      r["odom_inc"][0], r["odom_inc"][1],
                      " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"],
-                     r["odom_scale"]))
+                     r["odom_scale"],
+                     " ".join("%+.2f" % v for v in r["ideal_sides"]) or "-"))
             sys.stdout.flush()
 
 
