@@ -114,9 +114,10 @@ class RbpfConfig:
     # ending farther than this from a particle's map (a surface that came into view since
     # the last update, something not in the map) counts as this far. While the robot
     # explores, such surfaces lie beyond the mapped ones, so a particle that lags along the
-    # travel finds them nearer to its map and wins the weighting: the corridor's long sides
-    # come out short (ascc_eval/scripts/mapper_along_bias.py, 'selection'). <0: the match
-    # radius, as gmapping's kernel.
+    # travel finds them nearer to its map and wins the weighting (ascc_eval/scripts/
+    # mapper_along_bias.py, 'selection'). A smaller radius shrinks that pull, but the
+    # corridor's long sides did not come out longer online (docs/results/
+    # ascc_navigation.md). <0: the match radius, as gmapping's kernel.
     weight_radius_m: float = param(-1.0, "[m] beam end points farther than this from a "
                                    "particle's map count as this far in its weight; <0: the "
                                    "match radius (not gmapping)")
