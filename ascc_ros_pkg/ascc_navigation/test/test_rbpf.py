@@ -346,6 +346,32 @@ def test_weight_radius_bounds_each_beams_term_in_the_weights():
     assert gains[0.03][1] < gains[0.03][0] - 5.0
 
 
+@pytest.mark.parametrize("heading", [0.3, math.pi - 0.02])
+def test_detrend_along_drops_the_trend_along_the_heading_only(heading):
+    rng = np.random.default_rng(4)
+    n = 30
+    along = rng.normal(0.0, 0.05, n)
+    across = rng.normal(0.0, 0.05, n)
+    c, s_ = math.cos(heading), math.sin(heading)
+    poses = np.column_stack([2.0 + c * along - s_ * across, 1.0 + s_ * along + c * across,
+                             heading + rng.normal(0.0, 0.01, n)])
+    poses[:, 2] = P.wrap_angle(poses[:, 2])  # headings on both sides of +-pi
+    gain = -40.0 * along + 60.0 * across - 5.0
+    out = R.detrend_along(gain, poses)
+    assert out.mean() == pytest.approx(gain.mean())
+    a = along - along.mean()
+    # no trend along left (up to the mean heading's noise, 0.01 rad / sqrt(30))
+    assert abs(float(out @ a)) < 0.01 * abs(float(gain @ a))
+    # what tells the particles apart across the travel is kept
+    fit = np.polyfit(across, out, 1)
+    assert fit[0] == pytest.approx(60.0, rel=0.1)
+    # particles that do not spread along the heading: nothing to remove
+    still = poses.copy()
+    still[:, 0] = 2.0 - s_ * across
+    still[:, 1] = 1.0 + c * across
+    assert np.allclose(R.detrend_along(gain, still), gain, atol=1e-6)
+
+
 @pytest.mark.parametrize("recover_score", [0.0, 0.7])
 def test_wide_heading_search_recovers_a_turn_the_odometry_missed(recover_score):
     # The robot spun 25 degrees more than the odometry says (odometry stamped late while it

@@ -14,7 +14,8 @@ One filter update, given the odometry motion since the last update and a prepare
    are left out (they reach past what the map holds), and optionally (``seen_margin_m``)
    beams ending beyond what the previous update's scan saw in their direction;
 3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, r_w)^2 / (2 lsigma^2), r_w the match
-   radius or the smaller ``weight_radius_m``;
+   radius or the smaller ``weight_radius_m``; optionally (``detrend_along``) minus its
+   linear trend in the particles' position along their mean heading;
 4. pose entropy H = -sum w_i log w_i of the normalised weights (published by the node);
 5. selective resampling when N_eff = 1 / sum w_i^2 < resampleThreshold * N (low variance);
 6. map update: every particle registers the scan at its pose into its map.
@@ -49,6 +50,7 @@ from ascc_navigation.laser import PreparedScan, seen_before
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
+MIN_ALONG_STD_M = 1e-3  # detrend_along: less spread along the heading than this is none
 MAX_CLIMB_STEPS = 60  # safety cap on hill-climbing steps per update (all particles together)
 # Hill-climbing moves in the map frame: +-x, +-y (times lstep), +-theta (times astep).
 _MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
@@ -121,6 +123,16 @@ class RbpfConfig:
     weight_radius_m: float = param(-1.0, "[m] beam end points farther than this from a "
                                    "particle's map count as this far in its weight; <0: the "
                                    "match radius (not gmapping)")
+    # Not in gmapping: each update's log-likelihood minus its least-squares linear trend in
+    # the particles' position along their mean heading. The weights then keep what tells
+    # the particles apart across the travel and in heading, and drop a systematic
+    # preference along it: while the robot explores, surfaces newly in view favour the
+    # particle that lags, and resampling on such weights compounds it into maps that come
+    # out short along corridors. Off by default: better in replays of recorded corridor
+    # runs, worse in two online ones (docs/results/ascc_navigation.md).
+    detrend_along: bool = param(False, "remove from each update's weights their linear "
+                                "trend in the particles' position along their mean "
+                                "heading (not gmapping)")
     # Not in gmapping: re-localisation of a particle whose matched scan fits its map badly
     # (fewer than recover_score of the beams, as a fraction of the perfect score): odometry
     # that turned by an unmodelled amount (a wheel slip, odometry stamped late while the
@@ -195,6 +207,21 @@ class UpdateStats:
     log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
                                                 # / ogain, added to the log weights
     weighed_poses: Optional[np.ndarray] = None  # (N, 3) the poses weighed (before resampling)
+
+
+def detrend_along(gain: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """``gain`` (one value per particle) minus its least-squares linear trend in the
+    particles' position along their mean heading (``poses`` (N, 3)); its mean is kept.
+    Unchanged when the particles spread along that heading by less than MIN_ALONG_STD_M
+    (a trend fitted to less would be one across the travel, seen through the mean
+    heading's error)."""
+    h = math.atan2(float(np.mean(np.sin(poses[:, 2]))), float(np.mean(np.cos(poses[:, 2]))))
+    a = math.cos(h) * poses[:, 0] + math.sin(h) * poses[:, 1]
+    a = a - a.mean()
+    var = float(a @ a)
+    if var <= a.size * MIN_ALONG_STD_M ** 2:
+        return gain
+    return gain - (float((gain - gain.mean()) @ a) / var) * a
 
 
 def normalized_weights(log_w: np.ndarray) -> np.ndarray:
@@ -700,6 +727,8 @@ class RbpfSlam:
             stats.mean_score = float(score.mean())
             d = fields.distances(self.poses[:, None, :], np.arange(cfg.particles), pts)[:, 0, :]
             stats.log_gain = fields.log_likelihood(d, cfg.lsigma, cfg.weight_radius) / cfg.ogain
+            if cfg.detrend_along:
+                stats.log_gain = detrend_along(stats.log_gain, self.poses)
             stats.weighed_poses = self.poses.copy()
             self.log_w += stats.log_gain
         self.log_w -= self.log_w.max()
