@@ -5,7 +5,10 @@ sensor model (``ascc_sim.camera_effects``) and publishes it as ``<ns>/camera/*``
 optionally, as an MJPEG stream on loopback (``ascc_sim.mjpeg_server``). A simulator-side
 node: it may read the ground truth, which no algorithm may.
 
-The callbacks only store the newest messages; a timer (simulated time) renders.
+The callbacks only store the newest messages; a timer (simulated time) renders: an
+``ascc_common.paced_timer.PacedTimer``, which wakes once per frame, not on every /clock
+message as a ``rospy.Timer`` does, and stops when the node's shutdown starts (a
+``rospy.Timer`` could still publish then, to topics rospy has closed).
 Parameters: ``ascc_sim.camera_render.SimCameraParams`` and ``~logo_textures``
 (``{logo name: PNG path}``); see the package README, node "sim_camera".
 """
@@ -21,6 +24,7 @@ import tf2_ros
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import ParamError, from_params
 from ascc_common.pose2d import yaw_of
 from ascc_sim import messages as M
@@ -88,8 +92,9 @@ class SimCameraNode:
         rospy.Subscriber("ground_truth/%s/odom" % self.spec.name, Odometry, self.on_odom,
                          queue_size=1)
         rospy.Subscriber("ground_truth/people", SimObjectArray, self.on_people, queue_size=1)
+        self.timer = PacedTimer(1.0 / p.rate_hz, self.on_timer, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="render")
         rospy.on_shutdown(self.shutdown)
-        self.timer = rospy.Timer(rospy.Duration(1.0 / p.rate_hz), self.on_timer)
         rospy.loginfo("sim_camera: robot %s (ns '%s'), %d x %d %s at %g Hz, frame %s",
                       self.spec.name, self.spec.namespace, cam.width_px, cam.height_px,
                       cam.layout, p.rate_hz, self.frame_id)
@@ -126,7 +131,7 @@ class SimCameraNode:
             return True
         return self.pubs is not None and any(pub.get_num_connections() for pub in self.pubs)
 
-    def on_timer(self, event):
+    def on_timer(self):
         if not self.wanted():
             return
         now = rospy.get_time()
@@ -161,6 +166,7 @@ class SimCameraNode:
         info.publish(M.camera_info(now, self.frame_id, cam))
 
     def shutdown(self):
+        self.timer.shutdown()
         if self.server is not None:
             self.server.stop()
 
