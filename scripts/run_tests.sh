@@ -29,7 +29,11 @@ done
 
 passed=0; failed=0; failures=()
 lint_pass=0; lint_fail=0
-step() { printf '\n==== %s ====\n' "$*"; }
+# each step's heading says when it started ([m:ss] since this script began), so that a
+# log shows where the time of `make test` goes
+t0=$(date +%s)
+clock() { local s=$(( ${1:-$(date +%s)} - t0 )); printf '%d:%02d' $((s / 60)) $((s % 60)); }
+step() { printf '\n==== %s ==== [%s]\n' "$*" "$(clock)"; }
 lint_gate() {  # lint_gate NAME RC
   if [ "$2" -eq 0 ]; then lint_pass=$((lint_pass + 1)); else lint_fail=$((lint_fail + 1)); failures+=("$1"); fi
 }
@@ -59,7 +63,7 @@ py38_dir="$(mktemp -d)"
 py38_pids=()
 for profile in pins focal; do
   ( nice -n 19 bash scripts/test_py38.sh "$profile" > "$py38_dir/$profile.out" 2>&1
-    echo $? > "$py38_dir/$profile.rc" ) &
+    echo $? > "$py38_dir/$profile.rc"; date +%s > "$py38_dir/$profile.end" ) &
   py38_pids+=($!)
 done
 
@@ -71,6 +75,7 @@ rc=${PIPESTATUS[0]}
 py_pass=$(tail -1 "$pytest_out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
 py_fail=$(tail -1 "$pytest_out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
 rm -f "$pytest_out"
+pytest_end="$(clock)"; rostest_end="-"
 # rc 5 is "no tests collected": a failure here, since the test folders exist.
 if [ "$rc" -eq 5 ]; then
   py_fail=$((py_fail + 1)); failures+=("pytest collected no tests in ${test_dirs[*]}")
@@ -113,9 +118,11 @@ PY
   [ "$rt_skip" -gt 0 ] && rt_line+=", $rt_skip skipped"
   [ -n "${ROSTEST_FILTER:-}" ] && rt_line+=" (ROSTEST_FILTER=$ROSTEST_FILTER)"
   summary+=("$rt_line")
+  rostest_end="$(clock)"
 fi
 
 wait "${py38_pids[@]}"
+py38_end="$(clock "$(sort -n "$py38_dir"/*.end 2>/dev/null | tail -1)")"
 for profile in pins focal; do
   step "pytest under Python 3.8 ($profile)"
   py38_out="$py38_dir/$profile.out"
@@ -135,7 +142,7 @@ for profile in pins focal; do
 done
 rm -rf "$py38_dir"
 
-printf '\n==== summary ====\n'
+step "summary (ended: pytest $pytest_end, rostests $rostest_end, Python 3.8 $py38_end)"
 for f in "${failures[@]}"; do echo "FAILED: $f"; done
 printf -v line '%s; ' "${summary[@]}"; echo "${line%; }"
 echo "$passed passed, $failed failed"
