@@ -78,11 +78,7 @@ def record_bag(path, params):
         raise SystemExit("%s: no /ground_truth/<robot>/pose" % path)
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=0)
     scans, truth = [], []
-    for stamp, ranges in run.scans:
-        odom = run.odom_at(stamp)
-        if odom is None:
-            continue
-        scan = M.ScanInput(stamp, ranges, *run.scan_meta)
+    for stamp, scan, odom in run.mapper_inputs():
         if mapper.handle_scan(scan, odom, run.mount).map_changed:
             scans.append(mapper._prepare(scan, run.mount))
             truth.append(run.truth_at(stamp))

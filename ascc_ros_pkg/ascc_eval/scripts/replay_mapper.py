@@ -134,6 +134,17 @@ class RunBag:
         return np.array([a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]),
                          a[3] + f * float(wrap_angle(b[3] - a[3]))])
 
+    def mapper_inputs(self, skip=None):
+        """What the mapper is fed, in the bag's order: (stamp, ``M.ScanInput``, odometry pose
+        at the stamp) of each scan with odometry there (``odom_at``); ``skip``: per scan,
+        true to leave it out (as the online node drops late ones)."""
+        for k, (stamp, ranges) in enumerate(self.scans):
+            if skip is not None and skip[k]:
+                continue
+            odom = self.odom_at(stamp)
+            if odom is not None:
+                yield stamp, M.ScanInput(stamp, ranges, *self.scan_meta), odom
+
     def truth_at(self, t):
         g = self.truth
         i = int(np.clip(np.searchsorted(g[:, 0], t), 1, len(g) - 1))
@@ -211,16 +222,12 @@ def replay(run, params, seed, drop_late_s, late):
     world_from_map = None
     errors = []
     cpu = 0.0
-    updates = dropped = 0
-    for k, (stamp, ranges) in enumerate(run.scans):
-        if drop_late_s > 0 and late[k] > drop_late_s:
-            dropped += 1
-            continue
-        odom = run.odom_at(stamp)
-        if odom is None:
-            continue
+    updates = 0
+    skip = np.asarray(late) > drop_late_s if drop_late_s > 0 else None
+    dropped = 0 if skip is None else int(skip.sum())
+    for stamp, scan, odom in run.mapper_inputs(skip):
         c0 = time.process_time()
-        out = mapper.handle_scan(M.ScanInput(stamp, ranges, *run.scan_meta), odom, run.mount)
+        out = mapper.handle_scan(scan, odom, run.mount)
         cpu += time.process_time() - c0
         if out.status in (M.STARTED, M.RESET) and run.truth is not None:
             # the map frame is the odometry frame at the first scan
