@@ -8,7 +8,13 @@ import pytest
 
 from ascc_common import pose2d
 from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
-from ascc_eval.map_quality import measure, report_lines, write_overlay
+from ascc_eval.map_quality import (
+    QualityParams,
+    best_placement,
+    measure,
+    report_lines,
+    write_overlay,
+)
 
 RES = 0.05
 WIDTH_M = 2.4          # corridor width
@@ -123,3 +129,50 @@ def test_unseen_side_is_not_measured():
     sides = _sides(q)
     assert any(r["map_m"] is None for r in sides)
     assert q.walls["seen_fraction"] < 0.9
+
+
+@pytest.mark.parametrize("error", [(0.3, -0.2, 0.01), (-0.45, 0.1, -0.02)])
+def test_best_placement_finds_a_map_frame_put_off(error):
+    """A map of the right shape given at a wrong pose of its frame: the search moves it
+    back to within a cell and a tenth of a degree of the pose it was drawn at (drawn
+    turned, its cells match the plan's only to a cell), where it agrees at least as well
+    as there, against a poor agreement at the given pose."""
+    plan, info, _ = plan_world()
+    pose = (2.0, -1.0, 0.3)
+    grid, minfo, _ = distorted_map(scale=1.0, rotate_deg=0.0, pose=pose)
+    at_pose = best_placement(grid, minfo, plan, info, pose,
+                             QualityParams(placement_search_m=0.0, placement_search_rad=0.0))
+    assert at_pose["offset"] == [0.0, 0.0, 0.0]
+    given = tuple(np.add(pose, error))
+    pl = best_placement(grid, minfo, plan, info, given)
+    assert pl["pose"][:2] == pytest.approx(pose[:2], abs=RES + 1e-9)
+    assert pl["pose"][2] == pytest.approx(pose[2], abs=math.radians(0.1))
+    assert pl["offset"] == pytest.approx(np.subtract(pl["pose"], given).tolist())
+    assert pl["agreed_share_given"] < 0.9 < at_pose["agreed_share"] <= pl["agreed_share"]
+
+
+def test_best_placement_leaves_a_well_placed_map_and_keeps_to_its_bounds():
+    plan, info, _ = plan_world()
+    pl = best_placement(plan, info, plan, info)
+    assert pl["offset"] == [0.0, 0.0, 0.0] and pl["agreed_share"] == 1.0
+    # a frame 1.5 m off, searched within 0.5 m and 0.01 rad: it stops at the bounds
+    p = QualityParams(placement_search_m=0.5, placement_search_rad=0.01)
+    pl = best_placement(plan, info, plan, info, (1.5, 0.0, 0.0), p)
+    assert abs(pl["offset"][0]) <= 0.5 + 1e-9 and abs(pl["offset"][1]) <= 0.5 + 1e-9
+    assert abs(pl["offset"][2]) <= 0.01 + 1e-9
+    assert pl["agreed_share"] >= pl["agreed_share_given"]
+
+
+def test_measure_reports_the_placement_and_the_walls_there():
+    plan, info, _ = plan_world()
+    pose = (2.0, -1.0, 0.3)
+    grid, minfo, _ = distorted_map(scale=1.0, rotate_deg=0.0, pose=pose)
+    given = (pose[0] + 0.6, pose[1] - 0.4, pose[2])
+    q = measure(grid, minfo, plan, info, plan, (A[0] + 1.2, A[1] + 7.0), given, place=True)
+    assert q.walls["within"] < 0.5 < 0.95 < q.placement["walls"]["within"]
+    text = "\n".join(report_lines(q))
+    dx, dy, _ = q.placement["offset"]
+    assert "best placement" in text and "(%+.3f, %+.3f) m" % (dx, dy) in text
+    assert dx == pytest.approx(-0.6, abs=RES + 1e-9) and dy == pytest.approx(0.4, abs=RES + 1e-9)
+    assert measure(grid, minfo, plan, info, plan, (A[0] + 1.2, A[1] + 7.0),
+                   given).placement is None
