@@ -14,11 +14,14 @@ batches; `--report-only` only prints the table again and redraws the plots
 Coverage alone cannot tell a broken SLAM map (one that maps a corridor twice still "knows"
 the ground truth's cells), so every run's final map is also compared with the world's
 ground truth (`map_ok`: known cells of the map, placed by the start pose, that agree with the
-truth; ascc_navigation.grid.map_agreement), and coverage is reported twice: `coverage`, the
-share of the truth's reachable cells that the SLAM map knows *at their true place* (map
-drift counts against it), and `seen`, the share the laser has reached from the robot's true
-poses (ascc_eval.report.SeenArea: the exploration alone). `--report-only`
-back-fills `seen` of runs from before the monitor measured it from their run.bag.
+truth; ascc_navigation.grid.map_agreement; `placement`: the shift of the map's frame at
+which it agrees best and the agreement there, ascc_eval.map_quality.best_placement, which
+tells a map of the right shape whose frame ended up off from a misshapen one), and
+coverage is reported twice: `coverage`, the share of the truth's reachable cells that the
+SLAM map knows *at their true place* (map drift counts against it), and `seen`, the share
+the laser has reached from the robot's true poses (ascc_eval.report.SeenArea: the
+exploration alone). `--report-only` back-fills `seen` of runs from before the monitor
+measured it from their run.bag, and the map figures of runs from before they existed.
 The simulator's real-time factor cap is per world unless `--rtf` is given (DEFAULT_RTF):
 4 everywhere (the corridor ran at 2 while its mapper and navigator needed more CPU than 2
 cores give at 4; since the stack's CPU work, 4 runs there without a collision, see
@@ -95,6 +98,7 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s, calibr
             "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
             "time_s": s.get("time_s"), "bumps": s.get("bumps"),
             "end": s.get("end_reason"), "map_ok": map_check(final, world),
+            "placement": map_placement(final, world),
             "sides_pct": side_errors(final, world),
             "seen": s.get("seen_coverage"),
             "time_to": {lv: s.get("time_to_coverage_s", {}).get(lv) for lv in LEVELS}}
@@ -109,21 +113,39 @@ def final_map(run_dir):
     return load_map(explored) if os.path.exists(explored) else None
 
 
+def world_truth(world):
+    """The world's ground-truth grid and GridInfo."""
+    from ascc_common.map_io import load_map
+
+    return load_map(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds", "maps",
+                                 world + ".yaml"))
+
+
 def map_check(final, world):
     """Share of the final SLAM map's (``final_map``) known cells that agree with the
-    world's ground truth (cells off the truth's known area count as disagreeing); None
-    without a saved map."""
-    from ascc_common.map_io import load_map
+    world's ground truth (cells off the truth's known area count as disagreeing,
+    map_quality.agreed_share); None without a saved map."""
+    from ascc_eval.map_quality import agreed_share
     from ascc_navigation.grid import map_agreement
 
     if final is None:
         return None
     est, est_info = final
-    truth, truth_info = load_map(os.path.join(ROOT, "ascc_ros_pkg", "ascc_sim", "worlds",
-                                              "maps", world + ".yaml"))
-    a = map_agreement(est, est_info, truth, truth_info)
-    total = a["known"] + a["unmatched"]
-    return a["agree"] / total if total else None
+    share = agreed_share(map_agreement(est, est_info, *world_truth(world)))
+    return None if share != share else share
+
+
+def map_placement(final, world):
+    """The final SLAM map's best placement (ascc_eval.map_quality.best_placement): the
+    shift of its frame [m, m, rad] at which the most of its known cells agree with the
+    truth, and that share (``map_ok`` there): a map with the right shape whose frame ended
+    up off agrees well there only. None without a saved map."""
+    from ascc_eval.map_quality import best_placement
+
+    if final is None:
+        return None
+    pl = best_placement(*final, *world_truth(world))
+    return {"offset": [round(v, 4) for v in pl["offset"]], "map_ok": pl["agreed_share"]}
 
 
 # Worlds whose outer wall is a few long straight sides (thesis 2.5.2 measures the corridor's
@@ -286,6 +308,26 @@ def plot(results, out):
             print("wrote", os.path.join(out, "coverage_%s.png" % world))
 
 
+def backfill(results, out):
+    """The figures that runs from before the map check, the sides, the placement or the
+    seen coverage lack, from their saved map and bag."""
+    for r in results:
+        if "error" in r:
+            continue
+        run_dir = os.path.join(out, "%s_%s_seed%d" % (r["world"], r["strategy"], r["seed"]))
+        if not all(k in r for k in ("map_ok", "sides_pct", "placement")):
+            final = final_map(run_dir)
+            if "map_ok" not in r:
+                r["map_ok"] = map_check(final, r["world"])
+            if "sides_pct" not in r:
+                r["sides_pct"] = side_errors(final, r["world"])
+            if "placement" not in r:
+                r["placement"] = map_placement(final, r["world"])
+        if r.get("seen") is None:
+            print("seen coverage of %s from its bag ..." % run_dir, flush=True)
+            r["seen"] = seen_from_bag(run_dir)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--worlds", nargs="+", default=["office", "lab", "corridor"])
@@ -317,18 +359,7 @@ def main(argv=None):
         with open(table) as f:
             results = json.load(f)
     if args.report_only:
-        for r in results:  # runs from before the map check / the seen coverage
-            run_dir = os.path.join(args.out, "%s_%s_seed%d" % (r["world"], r["strategy"],
-                                                               r["seed"]))
-            if "error" not in r and ("map_ok" not in r or "sides_pct" not in r):
-                final = final_map(run_dir)
-                if "map_ok" not in r:
-                    r["map_ok"] = map_check(final, r["world"])
-                if "sides_pct" not in r:
-                    r["sides_pct"] = side_errors(final, r["world"])
-            if r.get("seen") is None and "error" not in r:
-                print("seen coverage of %s from its bag ..." % run_dir, flush=True)
-                r["seen"] = seen_from_bag(run_dir)
+        backfill(results, args.out)
         with open(table, "w") as f:
             json.dump(results, f, indent=1)
         summarise(results)
@@ -355,6 +386,13 @@ def main(argv=None):
                              "%.1f%%"), fmt(r.get("path_m")),
                          *(fmt(r.get("time_to", {}).get(lv)) for lv in LEVELS),
                          r.get("bumps", "-"), fmt(r.get("wall_s"), "%.0f")), flush=True)
+                if r.get("map_ok") is not None and r.get("placement"):
+                    pl = r["placement"]
+                    print("  map agreement %.1f %%; %.1f %% with the map moved by "
+                          "(%+.2f, %+.2f) m, %+.2f deg (best placement)"
+                          % (100 * r["map_ok"], 100 * pl["map_ok"], pl["offset"][0],
+                             pl["offset"][1], pl["offset"][2] * 57.29577951308232),
+                          flush=True)
                 with open(table, "w") as f:
                     json.dump(results, f, indent=1)
     summarise(results)
