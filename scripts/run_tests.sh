@@ -53,20 +53,19 @@ if [ "$lint_only" -eq 1 ]; then
   printf '\n%s\n%d passed, %d failed\n' "${summary[0]}" "$passed" "$failed"; [ "$failed" -eq 0 ]; exit $?
 fi
 
-# pytest_counts NAME OUT RC: add a pytest run's counts (the last line of its output OUT)
-# to the totals; rc 5 ("no tests collected") is a failure, since the test folders exist
-py_pass=0; py_fail=0
+# pytest_counts NAME OUT RC: a pytest run's counts (the last line of its output OUT) in
+# cnt_pass and cnt_fail, its failure named in failures; rc 5 ("no tests collected") is a
+# failure, since the test folders exist
 pytest_counts() {
-  local name="$1" out="$2" rc="$3" p f
-  p=$(tail -1 "$out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
-  f=$(tail -1 "$out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
+  local name="$1" out="$2" rc="$3"
+  cnt_pass=$(tail -1 "$out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
+  cnt_fail=$(tail -1 "$out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
   if [ "$rc" -eq 5 ]; then
-    f=$((f + 1)); failures+=("$name collected no tests")
+    cnt_fail=$((cnt_fail + 1)); failures+=("$name collected no tests")
   elif [ "$rc" -ne 0 ]; then
-    [ "$f" -eq 0 ] && f=1
-    failures+=("$name (rc=$rc): $f failed")
+    [ "$cnt_fail" -eq 0 ] && cnt_fail=1
+    failures+=("$name (rc=$rc): $cnt_fail failed")
   fi
-  py_pass=$((py_pass + p)); py_fail=$((py_fail + f))
 }
 PYTEST=(python -m pytest -q -p no:cacheprovider --import-mode=importlib)
 
@@ -76,14 +75,14 @@ PYTEST=(python -m pytest -q -p no:cacheprovider --import-mode=importlib)
 # rostests:
 #  * the robots run Python 3.8: the pure tests again under 3.8, with requirements.txt's
 #    3.8 pins and with Ubuntu 20.04's library versions (scripts/test_py38.sh);
-#  * the packages' own tests (ascc_ros_pkg, no master) but those in FOREGROUND_TESTS.
-#    (Run first, in the foreground, they made the rostests start 6.5 min late in a clean
-#    clone, and `make test` take 20.7 min; the 3.8 passes, which run these same tests
-#    there, have always passed.)
+#  * the packages' own tests (ascc_ros_pkg, no master) but those in FOREGROUND_TESTS:
+#    the 3.8 passes have always run these same tests there. (Run first in the
+#    foreground, they made the rostests start 6.5 min late: a clean clone's `make test`
+#    took 20.7 min on the 2-core VM, 18.2 min with them here.)
 # In the foreground, before the rostests: test/ (the rviz configs rendered, launches side
 # by side, the rostest runner's own tests: they start rviz, masters and launches with
-# wall-clock deadlines) and the tests the 3.8 passes skip that wait on a real master
-# (PyQt5 is Debian's only).
+# wall-clock deadlines) and the Qt tests, which the 3.8 passes skip (PyQt5 is Debian's
+# only) and one of which restarts a real master.
 FOREGROUND_TESTS=(ascc_ros_pkg/telepresence/test/test_operator_gui_node.py
                   ascc_ros_pkg/telepresence/test/test_gui.py)
 bg_dir="$(mktemp -d)"
@@ -105,6 +104,7 @@ step "pytest: test/ and the packages' tests that wait on a master (the others: b
 fg_out="$(mktemp)"
 "${PYTEST[@]}" "${test_dirs[@]:1}" "${FOREGROUND_TESTS[@]}" 2>&1 | tee "$fg_out"
 pytest_counts "pytest (foreground)" "$fg_out" "${PIPESTATUS[0]}"
+py_pass=$cnt_pass; py_fail=$cnt_fail
 rm -f "$fg_out"
 pytest_end="$(clock)"; rostest_end="-"
 
@@ -148,6 +148,7 @@ bg_end="$(clock "$(sort -n "$bg_dir"/*.end 2>/dev/null | tail -1)")"
 step "pytest: the packages' tests (background)"
 cat "$bg_dir/packages.out"
 pytest_counts "pytest (packages)" "$bg_dir/packages.out" "$(cat "$bg_dir/packages.rc" 2>/dev/null || echo 1)"
+py_pass=$((py_pass + cnt_pass)); py_fail=$((py_fail + cnt_fail))
 passed=$((passed + py_pass)); failed=$((failed + py_fail))
 summary=("${summary[0]}" "pytest $py_pass passed, $py_fail failed" "${summary[@]:1}")
 for profile in pins focal; do
@@ -155,17 +156,13 @@ for profile in pins focal; do
   py38_out="$bg_dir/py38-$profile.out"
   cat "$py38_out"
   rc="$(cat "$bg_dir/py38-$profile.rc" 2>/dev/null || echo 1)"
-  p38_pass=$(tail -1 "$py38_out" | grep -Eo '[0-9]+ passed' | grep -Eo '[0-9]+' || echo 0)
-  p38_fail=$(tail -1 "$py38_out" | grep -Eo '[0-9]+ (failed|errors?)' | awk '{s+=$1} END {print s+0}')
   if [ "$rc" -eq 3 ]; then
     summary+=("pytest-3.8 $profile SKIPPED (no Python 3.8 interpreter)")
     continue
-  elif [ "$rc" -ne 0 ]; then
-    [ "$p38_fail" -eq 0 ] && p38_fail=1
-    failures+=("pytest under Python 3.8 $profile (rc=$rc): $p38_fail failed")
   fi
-  passed=$((passed + p38_pass)); failed=$((failed + p38_fail))
-  summary+=("pytest-3.8 $profile $p38_pass passed, $p38_fail failed")
+  pytest_counts "pytest under Python 3.8 $profile" "$py38_out" "$rc"
+  passed=$((passed + cnt_pass)); failed=$((failed + cnt_fail))
+  summary+=("pytest-3.8 $profile $cnt_pass passed, $cnt_fail failed")
 done
 rm -rf "$bg_dir"
 

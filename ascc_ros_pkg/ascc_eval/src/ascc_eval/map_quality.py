@@ -305,10 +305,10 @@ def best_placement(grid: np.ndarray, info: GridInfo, truth: np.ndarray, truth_in
     start = np.asarray(map_pose, float)
     bound = np.array([p.placement_search_m, p.placement_search_m, p.placement_search_rad])
 
-    def accuracy(pose):
+    def share(pose):
         return agreed_share(map_agreement(grid, info, truth, truth_info, tuple(pose)))
 
-    pose, best = start.copy(), accuracy(start)
+    pose, best = start.copy(), share(start)
     given = best
     step = np.asarray(PLACEMENT_STEP, float)
     for _ in range(PLACEMENT_HALVINGS + 1):
@@ -321,7 +321,7 @@ def best_placement(grid: np.ndarray, info: GridInfo, truth: np.ndarray, truth_in
                     trial[k] += sign * step[k]
                     if abs(trial[k] - start[k]) > bound[k] + 1e-12:
                         continue
-                    a = accuracy(trial)
+                    a = share(trial)
                     if a > best:
                         pose, best, improved = trial, a, True
         step = step / 2.0
