@@ -129,7 +129,8 @@ class RbpfConfig:
     # preference along it: while the robot explores, surfaces newly in view favour the
     # particle that lags, and resampling on such weights compounds it into maps that come
     # out short along corridors. Off by default: better in replays of recorded corridor
-    # runs, worse in two online ones (docs/results/ascc_navigation.md).
+    # runs, not online (five corridor seeds: 90.2 % against 90.4 %, one broken map;
+    # docs/results/ascc_navigation.md).
     detrend_along: bool = param(False, "remove from each update's weights their linear "
                                 "trend in the particles' position along their mean "
                                 "heading (not gmapping)")
