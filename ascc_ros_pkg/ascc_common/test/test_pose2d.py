@@ -50,3 +50,12 @@ def test_scalar_wrap_matches_the_array_wrap(theta):
     scalar = P.wrap_angle(theta)
     assert isinstance(scalar, float)
     assert scalar == float(P.wrap_angle(np.array([theta]))[0])
+
+
+def test_mean_yaw_across_pi_and_weighted():
+    assert abs(P.wrap_angle(P.mean_yaw([math.pi - 0.1, -math.pi + 0.1]) - math.pi)) < 1e-12
+    assert P.mean_yaw([0.2, 0.4]) == pytest.approx(0.3)
+    # the weights pull the mean towards the heavier angle; weights of one angle only: it
+    assert P.mean_yaw([0.0, 1.0], [3.0, 1.0]) == pytest.approx(math.atan2(math.sin(1.0),
+                                                                         3 + math.cos(1.0)))
+    assert P.mean_yaw([0.0, 1.0], [0.0, 2.0]) == pytest.approx(1.0)

@@ -25,6 +25,16 @@ def wrap_angle(theta):
     return float(wrapped) if wrapped.ndim == 0 else wrapped
 
 
+def mean_yaw(yaws, weights=None) -> float:
+    """Circular mean [rad] of angles (weighted if ``weights`` is given): the direction of
+    the mean of their unit vectors, so that angles either side of +-pi average to pi."""
+    yaws = np.asarray(yaws, dtype=float)
+    if weights is None:
+        return math.atan2(float(np.mean(np.sin(yaws))), float(np.mean(np.cos(yaws))))
+    w = np.asarray(weights, dtype=float)
+    return math.atan2(float(w @ np.sin(yaws)), float(w @ np.cos(yaws)))
+
+
 def compose(a, b) -> np.ndarray:
     """a * b for poses (..., 3); broadcasts."""
     a = np.asarray(a, dtype=float)

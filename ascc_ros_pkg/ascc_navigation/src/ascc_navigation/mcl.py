@@ -34,7 +34,7 @@ import numpy as np
 
 from ascc_common.grid import GridInfo
 from ascc_common.params import nested, param
-from ascc_common.pose2d import compose, inverse, wrap_angle
+from ascc_common.pose2d import compose, inverse, mean_yaw, wrap_angle
 from ascc_navigation.laser import LaserMount
 
 OCCUPIED_MIN = 65  # occupancy value [0..100] from which a cell counts as an obstacle
@@ -491,7 +491,7 @@ class MonteCarloLocalizer:
         w = np.exp(self.log_w - self.log_w.max())
         w /= w.sum()
         mx, my = float(w @ self.poses[:, 0]), float(w @ self.poses[:, 1])
-        myaw = float(np.arctan2(w @ np.sin(self.poses[:, 2]), w @ np.cos(self.poses[:, 2])))
+        myaw = mean_yaw(self.poses[:, 2], w)
         dev = np.column_stack([self.poses[:, 0] - mx, self.poses[:, 1] - my,
                                wrap_angle(self.poses[:, 2] - myaw)])
         cov = (dev * w[:, None]).T @ dev

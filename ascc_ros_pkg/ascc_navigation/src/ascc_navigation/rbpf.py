@@ -44,7 +44,7 @@ from scipy.ndimage import uniform_filter1d
 
 from ascc_common.grid import OCCUPIED, GridInfo
 from ascc_common.params import param
-from ascc_common.pose2d import compose, wrap_angle
+from ascc_common.pose2d import compose, mean_yaw, wrap_angle
 from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
 
@@ -216,7 +216,7 @@ def detrend_along(gain: np.ndarray, poses: np.ndarray) -> np.ndarray:
     Unchanged when the particles spread along that heading by less than MIN_ALONG_STD_M
     (a trend fitted to less would be one across the travel, seen through the mean
     heading's error)."""
-    h = math.atan2(float(np.mean(np.sin(poses[:, 2]))), float(np.mean(np.cos(poses[:, 2]))))
+    h = mean_yaw(poses[:, 2])
     a = math.cos(h) * poses[:, 0] + math.sin(h) * poses[:, 1]
     a = a - a.mean()
     var = float(a @ a)
