@@ -50,7 +50,9 @@ class FakeRobot:
 
     def run(self):
         dt = 0.05
-        while not rospy.is_shutdown():
+        # is_shutdown_requested: true from the start of the shutdown, whose hooks close the
+        # publishers while rospy.is_shutdown() is still false
+        while not rospy.core.is_shutdown_requested():
             self.x += self.v * dt
             now = rospy.Time.now()
             odom = Odometry()

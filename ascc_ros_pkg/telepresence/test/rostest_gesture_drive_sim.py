@@ -34,7 +34,7 @@ class GestureDriveTest(unittest.TestCase):
         threading.Thread(target=self.operator, daemon=True).start()
 
     def operator(self):
-        while not rospy.is_shutdown():
+        while not rospy.core.is_shutdown_requested():  # publishers close before is_shutdown()
             if self.operator_on:
                 cmd = Twist()
                 cmd.angular.z = TURN

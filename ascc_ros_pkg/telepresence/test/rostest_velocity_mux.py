@@ -34,7 +34,7 @@ class Source:
         threading.Thread(target=self.run, daemon=True).start()
 
     def run(self):
-        while not rospy.is_shutdown():
+        while not rospy.core.is_shutdown_requested():  # publishers close before is_shutdown()
             if self.on:
                 cmd = Twist()
                 cmd.linear.x = float("nan") if self.nan else SPEED[self.name]

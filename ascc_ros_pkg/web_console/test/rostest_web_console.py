@@ -52,7 +52,7 @@ class Camera:
         threading.Thread(target=self.run, daemon=True).start()
 
     def run(self):
-        while not rospy.is_shutdown():
+        while not rospy.core.is_shutdown_requested():  # publishers close before is_shutdown()
             if self.on:
                 msg = CompressedImage(format="bgr8; jpeg compressed bgr8",
                                       data=os.urandom(FRAME_BYTES))
