@@ -65,8 +65,8 @@ class MapperTest(unittest.TestCase):
     @classmethod
     def on_scan(cls, msg):
         """Right after a simulator scan, the bad scan of the current kind with its stamp:
-        the mapper keeps only the newest scans and processes the newest whose TF has come,
-        so the bad scan is processed in the simulator scan's place (with the same TF).
+        the mapper queues the newest scans and feeds them to its filter in order, so the
+        bad scan is processed right after the simulator scan (with the same TF).
         If this callback lags the mapper by a scan period (0.02 s of wall time at factor
         5, under load), the mapper has processed a newer scan: the bad one's time went
         back, and the mapper resets its map (bag loop rule), which at the start, where the

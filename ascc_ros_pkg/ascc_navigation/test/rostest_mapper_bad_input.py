@@ -113,9 +113,9 @@ class MapperBadInputTest(unittest.TestCase):
         before_jump = self.map.msg.header.stamp
 
         n = self.spec.n
-        # Each kind of bad scan is sent until its warning arrives (the mapper keeps only the
-        # newest scans: one alone may be superseded unseen), then EXTRA more of it, which
-        # the per-kind throttle (WARN_PERIOD_S of wall time) must keep quiet.
+        # Each kind of bad scan is sent until its warning arrives (the mapper queues only
+        # the newest scans: one alone may be pushed out unseen), then EXTRA more of it,
+        # which the per-kind throttle (WARN_PERIOD_S of wall time) must keep quiet.
         kinds = ((([], "laser", None), ("empty scan",)),
                  (([float("nan")] * n, "laser", None),
                   ("no valid range in the scan (%d beams" % n,)),

@@ -66,7 +66,8 @@ class SlamNodeParams:
     tf_delay: Optional[float] = param(None, "[s] map -> odom post-dating (unset: "
                                             "transform_publish_period)")
     tf_wait_s: float = param(0.5, "[s] wait for a scan's TF")
-    process_period_s: float = param(0.05, "[s] scan timer (ROS time)")
+    process_period_s: float = param(0.05, "[s] scan timer (ROS time): feeds the queued "
+                                          "scans to the filter")
 
     def tf_delay_s(self) -> float:
         """``tf_delay``, unset: ``transform_publish_period`` (as gmapping)."""

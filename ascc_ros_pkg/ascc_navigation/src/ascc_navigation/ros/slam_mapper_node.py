@@ -4,8 +4,9 @@ Subscribes ``scan`` (sensor_msgs/LaserScan) and reads odometry from TF (odom -> 
 base_link -> laser at the scan's stamp). Publishes ``map`` (latched nav_msgs/OccupancyGrid,
 -1/0/100), ``map_metadata`` (latched), ``~entropy`` (std_msgs/Float64), TF map -> odom, and
 serves ``dynamic_map`` (nav_msgs/GetMap). Parameters: gmapping's names (see
-``ascc_navigation.mapper.SlamNodeParams`` and the package README). The scan callback only stores
-the newest scan; a timer runs the filter, another one broadcasts map -> odom.
+``ascc_navigation.mapper.SlamNodeParams`` and the package README). The scan callback only queues
+the scan (the newest SCAN_BUFFER); a timer feeds them to the filter in order, another one
+broadcasts map -> odom.
 """
 
 import re
@@ -31,7 +32,7 @@ from ascc_navigation import mapper as M
 from ascc_navigation.laser import LaserMount
 
 WARN_PERIOD_S = 5.0  # each kind of warning at most once per this period (wall clock)
-SCAN_BUFFER = 3  # newest scans kept: the newest whose TF has arrived is processed
+SCAN_BUFFER = 5  # scans waiting for the mapper, oldest dropped first (gmapping's filter: 5)
 WAIT = "wait"  # lookup_poses: TF not there yet
 DROP = "drop"  # lookup_poses: scan unusable (warned)
 
@@ -49,7 +50,7 @@ class SlamMapperNode:
         self.tf_delay = rospy.Duration(p.tf_delay_s())
         self.tf_wait = rospy.Duration(p.tf_wait_s)
         self.lock = threading.Lock()
-        self.scans = deque(maxlen=SCAN_BUFFER)  # newest unprocessed scans, oldest first
+        self.scans = deque(maxlen=SCAN_BUFFER)  # unprocessed scans, oldest first
         self.map_msg = None          # last published map (numpy_msg; for dynamic_map)
         self.map_dirty = False
         self.last_map_time = None
@@ -113,24 +114,25 @@ class SlamMapperNode:
         self.tf_broadcaster.sendTransform(t)
 
     def on_process(self):
+        """Feed the waiting scans to the mapper oldest first, as gmapping's message filter
+        does: each scan's motion counts towards linearUpdate / angularUpdate, so the
+        filter updates where they ask even when an update takes longer than the scans
+        come (a fast turn at a high real-time factor). Stops at the first scan whose TF has
+        not arrived yet."""
         with self.lock:
             waiting = list(self.scans)
-        chosen = None
-        for scan in reversed(waiting):  # newest first
+        for scan in waiting:
             poses = self.lookup_poses(scan)
             if poses is WAIT:
-                continue
-            with self.lock:  # this scan and every one that arrived before it are done
+                return  # the later scans' TF has not come either
+            with self.lock:  # this scan is done (unless the buffer has let it go already)
                 if any(s is scan for s in self.scans):
                     while self.scans.popleft() is not scan:
                         pass
             if poses is not DROP:
-                chosen = scan
-            break
-        if chosen is None:
-            return
-        scan = chosen
-        odom_pose, mount = poses
+                self.process(scan, *poses)
+
+    def process(self, scan, odom_pose, mount):
         out = self.mapper.handle_scan(
             M.ScanInput(scan.header.stamp.to_sec(), scan.ranges, scan.angle_min,
                         scan.angle_increment, scan.range_min, scan.range_max),
