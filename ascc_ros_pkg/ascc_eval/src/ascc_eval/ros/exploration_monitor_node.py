@@ -32,6 +32,7 @@ from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64, String
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import transform_points, yaw_of
 from ascc_eval.report import ExplorationRecord, LaserGeometry, MonitorParams, compose
@@ -85,7 +86,11 @@ class Monitor:
             rospy.Subscriber("sensorPacket", SensorPacket, self._on_sensors, queue_size=20)
         rospy.Subscriber("frontier_explorer/status", String, self._on_status, queue_size=5)
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
-        rospy.Timer(rospy.Duration(p.period_s), self._tick)
+        # PacedTimer: stops when the shutdown starts (a rospy.Timer ticks on while rospy's
+        # pre-shutdown hooks close the publishers) and wakes once per period, not on every
+        # /clock message (ascc_common.paced_timer)
+        self.timer = PacedTimer(p.period_s, self._tick, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="monitor")
         rospy.on_shutdown(lambda: self._finish("shutdown"))
 
     def _store(self, name):
@@ -152,7 +157,9 @@ class Monitor:
         p = self.start.pose
         return p.position.x, p.position.y, yaw_of(p.orientation)
 
-    def _tick(self, _event):
+    def _tick(self):
+        if self.finished:
+            return
         now = rospy.get_time()
         if self.t_start is None and now > 0.0:
             self.t_start = now
@@ -161,7 +168,12 @@ class Monitor:
             rospy.logwarn("exploration_monitor: ~max_time_s %.0f s reached" % self.max_time)
             self._finish("max_time")
             return
-        self._update()
+        try:
+            self._update()
+        except rospy.ROSException:
+            if not rospy.core.is_shutdown_requested():
+                raise
+            # a tick under way when the shutdown started: its publishers are closed
 
     def _update(self):
         with self.lock:
