@@ -27,6 +27,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from std_msgs.msg import ColorRGBA, String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import ParamError, from_params
 from ascc_common.pose2d import quaternion_from_yaw
 from ascc_common.throttle import Throttle
@@ -62,7 +63,10 @@ class FusionNode:
             topics.append(rospy.resolve_name(topic))
             rospy.Subscriber(topic, PoseWithCovarianceStamped, self.on_estimate,
                              callback_args=robot, queue_size=5)
-        self.timer = rospy.Timer(rospy.Duration(1.0 / self.p.rate_hz), self.tick)
+        # PacedTimer: stops when the shutdown starts, before rospy closes the publishers,
+        # and wakes once per period, not on every /clock message (ascc_common.paced_timer)
+        self.timer = PacedTimer(1.0 / self.p.rate_hz, self.tick, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="fusion")
         rospy.loginfo("fusion: %s of %s, window %.2f s", self.p.method, ", ".join(topics),
                       self.p.window_s)
 
@@ -80,7 +84,7 @@ class FusionNode:
         if reason:
             self.warn(robot, reason, reason + "; estimate dropped")
 
-    def tick(self, _event):
+    def tick(self):
         now = rospy.get_time()
         with self.lock:
             fused, left = self.core.step(now)
