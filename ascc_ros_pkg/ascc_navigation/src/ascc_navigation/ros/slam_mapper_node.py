@@ -116,9 +116,9 @@ class SlamMapperNode:
     def on_process(self):
         """Feed the waiting scans to the mapper oldest first, as gmapping's message filter
         does: each scan's motion counts towards linearUpdate / angularUpdate, so the
-        filter updates where they ask even when an update takes longer than the scans
-        come (a fast turn at a high real-time factor). Stops at the first scan whose TF has
-        not arrived yet."""
+        filter updates where they ask as long as it falls no more than SCAN_BUFFER scans
+        behind (beyond that the oldest are dropped unseen). Stops at the first scan whose
+        TF has not arrived yet."""
         with self.lock:
             waiting = list(self.scans)
         for scan in waiting:
