@@ -177,13 +177,21 @@ class TargetDetectorNode:
 
     # -- the worker ------------------------------------------------------------------------
     def run(self):
-        while not rospy.is_shutdown():
+        # is_shutdown_requested: true from the start of rospy's shutdown, whose hooks close
+        # the publishers while rospy.is_shutdown() is still false
+        while not rospy.core.is_shutdown_requested():
             with self.cond:
-                while self.pending is None and not rospy.is_shutdown():
+                while self.pending is None and not rospy.core.is_shutdown_requested():
                     self.cond.wait(0.2)
                 item, self.pending = self.pending, None
-            if item is not None:
+            if item is None:
+                continue
+            try:
                 self.process(*item)
+            except rospy.ROSException:
+                if not rospy.core.is_shutdown_requested():
+                    raise
+                return  # a frame under way when the shutdown started: publishers closed
 
     def _full_turn(self) -> bool:
         """Does the camera's panorama cover 360 degrees (its ends join)?"""
