@@ -450,6 +450,48 @@ def _corridor_world(length=40.0, width=3.0):
     return truth, info
 
 
+def test_likelihood_lookup_is_bilinear_on_each_particles_field():
+    """interpolate / gradients against scipy's linear interpolation and central differences
+    on the fields' own distance images (two particles, their maps different)."""
+    from scipy.ndimage import map_coordinates
+    world = S.office_world()
+    slam, fields, pts = _fields_after_mapping(world, [np.array([4.0, 1.8, 0.1])],
+                                              np.array([4.1, 1.8, 0.1]))
+    assert fields.h >= 20 and fields.w >= 20
+    rng = np.random.default_rng(3)
+    images = [rng.random((fields.band, fields.w), dtype=np.float32) for _ in range(2)]
+    fields.coef = R._bilinear_coefficients(np.concatenate(images).reshape(-1), fields.w)
+    u = rng.uniform(-3.0, fields.w + 3.0, (2, 3, 50)).astype(np.float32)
+    v = rng.uniform(-3.0, fields.h + 3.0, (2, 3, 50)).astype(np.float32)
+    got = fields.interpolate(u.copy(), v.copy(), np.array([1, 0]))
+    for row, particle in enumerate((1, 0)):
+        uu = np.clip(u[row], 0.0, fields.w - 1.001)   # off-window: clamped to the border
+        vv = np.clip(v[row], 0.0, fields.h - 1.001)
+        want = map_coordinates(images[particle].astype(np.float64), [vv, uu], order=1)
+        np.testing.assert_allclose(got[row], want, atol=1e-5)
+    # gradients: the same lookup at the end points seen from a pose, and its slope [m/m]
+    # from the four corner cells of the image
+    pose = np.array([[slam.poses[0, 0] + 0.013, slam.poses[0, 1] - 0.021, 0.3]])
+    d, gx, gy, rx, ry = fields.gradients(pose, np.array([1]), pts)
+    np.testing.assert_allclose(d, fields.distances(pose[:, None, :], np.array([1]), pts)[:, 0],
+                               atol=1e-6)
+    c, s_ = math.cos(0.3), math.sin(0.3)
+    res = fields.res
+    uu = np.clip((pose[0, 0] - fields.origin_x + c * pts[:, 0] - s_ * pts[:, 1]) / res,
+                 0.0, fields.w - 1.001)
+    vv = np.clip((pose[0, 1] - fields.origin_y + s_ * pts[:, 0] + c * pts[:, 1]) / res,
+                 0.0, fields.h - 1.001)
+    iu, iv = uu.astype(int), vv.astype(int)
+    fu, fv = uu - iu, vv - iv
+    img = images[1].astype(np.float64)
+    d00, d10, d01, d11 = img[iv, iu], img[iv, iu + 1], img[iv + 1, iu], img[iv + 1, iu + 1]
+    np.testing.assert_allclose(gx[0], ((d10 - d00) * (1 - fv) + (d11 - d01) * fv) / res,
+                               atol=1e-2)
+    np.testing.assert_allclose(gy[0], ((d01 - d00) * (1 - fu) + (d11 - d10) * fu) / res,
+                               atol=1e-2)
+    assert np.allclose(rx ** 2 + ry ** 2, (pts ** 2).sum(axis=1), atol=1e-6)
+
+
 def test_scan_information_of_a_corridor_has_a_flat_direction_along_it():
     pose = np.array([10.0, 1.5, 0.0])
     slam, fields, pts = _fields_after_mapping(_corridor_world(), [pose - [2, 0, 0],

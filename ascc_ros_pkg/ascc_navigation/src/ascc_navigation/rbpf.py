@@ -490,6 +490,24 @@ def _field_table(occ_thresh: float) -> np.ndarray:
     return np.where(count_table(occ_thresh) == OCCUPIED, 0, 255).astype(np.uint8)
 
 
+def _bilinear_coefficients(dist: np.ndarray, w: int) -> np.ndarray:
+    """Per cell k of the flat image ``dist`` (rows of ``w``): the bilinear patch with corner
+    k, d(k) + fu b + fv c + fu fv e over the cell, as (d, b, c, e) float32 packed into one
+    complex128, so an interpolation gathers one 16-byte item instead of four scattered
+    floats. Cells in the last row or column borrow zeros beyond the image; they are never
+    the corner of a lookup (``_LikelihoodFields._corners`` clamps below them)."""
+    n = dist.size
+    ext = np.zeros(n + w + 1, np.float32)
+    ext[:n] = dist
+    coef = np.empty((n, 4), np.float32)
+    coef[:, 0] = dist
+    np.subtract(ext[1:n + 1], dist, out=coef[:, 1])
+    np.subtract(ext[w:n + w], dist, out=coef[:, 2])
+    np.subtract(ext[w + 1:n + w + 1], ext[w:n + w], out=coef[:, 3])
+    coef[:, 3] -= coef[:, 1]
+    return coef.view(np.complex128).reshape(n)
+
+
 class _LikelihoodFields:
     """Per-particle distance fields (distance [m] from each cell to the nearest occupied cell
     of that particle's map, capped at the match radius) over one common window, stacked as a
@@ -513,7 +531,7 @@ class _LikelihoodFields:
                                      cv2.DIST_MASK_5)
         dist *= np.float32(res)
         np.minimum(dist, np.float32(cfg.match_radius), out=dist)
-        self.dist = dist.reshape(-1)
+        self.coef = _bilinear_coefficients(dist.reshape(-1), self.w)
         # continuous cell coordinates of the window, pixel centres at integers
         self.origin_x = maps.info.origin_x + (x0 + 0.5) * res
         self.origin_y = maps.info.origin_y + (y0 + 0.5) * res
@@ -538,26 +556,25 @@ class _LikelihoodFields:
     def interpolate(self, u: np.ndarray, v: np.ndarray, particle: np.ndarray) -> np.ndarray:
         """Bilinear distance [m] at window cell coordinates u, v (n, K, M) of particles
         ``particle`` (n,); modifies u and v. Off-window points clamp to the border."""
+        c, fu, fv = self._corners(u, v, particle[:, None, None])
+        return c[..., 0] + fu * c[..., 1] + fv * (c[..., 2] + fu * c[..., 3])
+
+    def _corners(self, u: np.ndarray, v: np.ndarray, particle: np.ndarray
+                 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The bilinear coefficients (u.shape + (4,)) of the cells under window cell
+        coordinates u, v (clamped to the window in place) of particles ``particle``
+        (broadcast against u), and the offsets fu, fv within those cells."""
         np.clip(u, 0.0, self.w - 1.001, out=u)
         np.clip(v, 0.0, self.h - 1.001, out=v)
         iu = u.astype(np.int32)
         iv = v.astype(np.int32)
-        fu = u - iu
-        fv = v - iv
+        fu = np.subtract(u, iu, dtype=np.float32)
+        fv = np.subtract(v, iv, dtype=np.float32)
         idx = iv * np.int32(self.w)
         idx += iu
-        idx += (particle.astype(np.int32) * np.int32(self.band * self.w))[:, None, None]
-        dist = self.dist
-        d00 = dist.take(idx)
-        idx += 1
-        d10 = dist.take(idx)
-        idx += self.w
-        d11 = dist.take(idx)
-        idx -= 1
-        d01 = dist.take(idx)
-        top = d00 + fu * (d10 - d00)
-        bottom = d01 + fu * (d11 - d01)
-        return top + fv * (bottom - top)
+        idx += particle.astype(np.int32) * np.int32(self.band * self.w)
+        c = self.coef.take(idx).view(np.float32).reshape(idx.shape + (4,))
+        return c, fu, fv
 
     def gradients(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray
                   ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -568,24 +585,12 @@ class _LikelihoodFields:
         ru, rv = self.rotated(poses[:, None, 2], pts)
         ru, rv = ru[:, 0], rv[:, 0]
         xc, yc = self.cells(poses[:, 0], poses[:, 1])
-        u = np.clip(xc + ru, 0.0, self.w - 1.001)
-        v = np.clip(yc + rv, 0.0, self.h - 1.001)
-        iu = u.astype(np.int32)
-        iv = v.astype(np.int32)
-        fu = u - iu
-        fv = v - iv
-        idx = iv * np.int32(self.w) + iu
-        idx += (particle.astype(np.int32) * np.int32(self.band * self.w))[:, None]
-        d00 = self.dist.take(idx)
-        d10 = self.dist.take(idx + 1)
-        d01 = self.dist.take(idx + self.w)
-        d11 = self.dist.take(idx + self.w + 1)
-        top = d00 + fu * (d10 - d00)
-        bottom = d01 + fu * (d11 - d01)
+        c, fu, fv = self._corners(xc + ru, yc + rv, particle[:, None])
         inv = np.float32(1.0 / self.res)
-        gx = ((d10 - d00) + fv * ((d11 - d01) - (d10 - d00))) * inv
-        gy = (bottom - top) * inv
-        return top + fv * (bottom - top), gx, gy, ru * self.res, rv * self.res
+        gx = (c[..., 1] + fv * c[..., 3]) * inv
+        gy = (c[..., 2] + fu * c[..., 3]) * inv
+        d = c[..., 0] + fu * c[..., 1] + fv * (c[..., 2] + fu * c[..., 3])
+        return d, gx, gy, ru * self.res, rv * self.res
 
     def distances(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
         """Interpolated distance [m] at the end points ``pts`` (M, 2, base frame) for poses
