@@ -51,6 +51,9 @@ class SlamMapperNode:
         self.tf_wait = rospy.Duration(p.tf_wait_s)
         self.lock = threading.Lock()
         self.scans = deque(maxlen=SCAN_BUFFER)  # unprocessed scans, oldest first
+        self.received = 0            # scans received ...
+        self.overflowed = 0          # ... and dropped unseen from a full queue
+        self.overflow_reported = 0
         self.map_msg = None          # last published map (numpy_msg; for dynamic_map)
         self.map_dirty = False
         self.last_map_time = None
@@ -82,6 +85,9 @@ class SlamMapperNode:
     # -- callbacks -------------------------------------------------------------------
     def on_scan(self, msg):
         with self.lock:
+            self.received += 1
+            if len(self.scans) == SCAN_BUFFER:
+                self.overflowed += 1
             self.scans.append(msg)
 
     def on_get_map(self, _req):
@@ -121,6 +127,12 @@ class SlamMapperNode:
         TF has not arrived yet."""
         with self.lock:
             waiting = list(self.scans)
+            overflowed, received = self.overflowed, self.received
+        if overflowed > self.overflow_reported:
+            self.overflow_reported = overflowed
+            self.warn("slam_mapper: the filter fell more than %d scans behind the laser; %d "
+                      "of %d scans so far were dropped unseen (the CPU is short)"
+                      % (SCAN_BUFFER, overflowed, received))
         for scan in waiting:
             poses = self.lookup_poses(scan)
             if poses is WAIT:
