@@ -168,12 +168,9 @@ class Monitor:
             rospy.logwarn("exploration_monitor: ~max_time_s %.0f s reached" % self.max_time)
             self._finish("max_time")
             return
-        try:
-            self._update()
-        except rospy.ROSException:
-            if not rospy.core.is_shutdown_requested():
-                raise
-            # a tick under way when the shutdown started: its publishers are closed
+        # a tick under way when the shutdown starts (its publishers closed) ends quietly:
+        # PacedTimer swallows a callback's exception once the shutdown is requested
+        self._update()
 
     def _update(self):
         with self.lock:
