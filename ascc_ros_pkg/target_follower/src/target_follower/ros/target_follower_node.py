@@ -32,6 +32,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64, String
 from std_srvs.srv import SetBool, SetBoolResponse
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import yaw_of
 from ascc_navigation.mapper import ScanInput, check_scan
@@ -90,7 +91,10 @@ class TargetFollowerNode:
         rospy.Service("~enable", SetBool, self.on_enable)
         if not self.enabled:
             self._set_state(DISABLED, "~start_enabled is false")
-        self.timer = rospy.Timer(rospy.Duration(self.period), self.on_timer, reset=True)
+        # PacedTimer, not rospy.Timer: it wakes once per period, not on every /clock message
+        # of a simulator, and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timer = PacedTimer(self.period, self.on_timer, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="control")
         rospy.on_shutdown(self.stop_robot)
 
     # -- callbacks: store the newest input -----------------------------------------------
@@ -124,7 +128,7 @@ class TargetFollowerNode:
         return SetBoolResponse(True, "enabled" if req.data else "disabled")
 
     # -- the control loop ----------------------------------------------------------------
-    def on_timer(self, _event):
+    def on_timer(self):
         with self.lock:
             now = rospy.Time.now()
             dt = self._dt(now)
@@ -297,7 +301,8 @@ class TargetFollowerNode:
         self.cmd_pub.publish(cmd)
 
     def stop_robot(self):
-        self._send(0.0, 0.0)
+        with self.lock:  # after a control step under way: its command goes out first
+            self._send(0.0, 0.0)
 
 
 def main():
