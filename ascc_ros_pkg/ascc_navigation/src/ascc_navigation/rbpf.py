@@ -568,8 +568,11 @@ class _LikelihoodFields:
         np.clip(v, 0.0, self.h - 1.001, out=v)
         iu = u.astype(np.int32)
         iv = v.astype(np.int32)
-        fu = np.subtract(u, iu, dtype=np.float32)
-        fv = np.subtract(v, iv, dtype=np.float32)
+        # float64 offsets, so the arithmetic (and the match score) stays float64 as before:
+        # float32 cut another 10 % of the CPU, but the filter then took other paths and one
+        # corridor seed of bench_mapper broke (not judged over enough seeds to adopt it)
+        fu = u - iu
+        fv = v - iv
         idx = iv * np.int32(self.w)
         idx += iu
         idx += particle.astype(np.int32) * np.int32(self.band * self.w)
