@@ -22,6 +22,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import CompressedImage, Image
 from std_msgs.msg import Float64
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import ParamError, from_params
 from ascc_common.throttle import Throttle
 from target_follower import mjpeg
@@ -70,8 +71,12 @@ class Q24CameraNode:
                                          daemon=True)]
         for thread in self.threads:
             thread.start()
-        rospy.Timer(rospy.Duration(1.0 / p.age_rate_hz), self.on_age_timer)
-        rospy.Timer(rospy.Duration(1.0), lambda event: self.diag.update())
+        # PacedTimers: each wakes once per period, not on every /clock message of a
+        # simulator, and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timers = [PacedTimer(1.0 / p.age_rate_hz, self.on_age_timer, rospy.get_time,
+                                  rospy.core.is_shutdown_requested, name="frame_age"),
+                       PacedTimer(1.0, self.diag.update, rospy.get_time,
+                                  rospy.core.is_shutdown_requested, name="diagnostics")]
         rospy.loginfo("q24_camera: reading %s (timeout %.1f s, frames older than %.2f s "
                       "dropped, raw images %s)", self.url, p.timeout_s, p.max_frame_age_s,
                       "on" if p.publish_raw else "off")
@@ -179,7 +184,7 @@ class Q24CameraNode:
             newest = self.newest_s
         return math.inf if newest is None else time.monotonic() - newest
 
-    def on_age_timer(self, event):
+    def on_age_timer(self):
         self.age_pub.publish(Float64(self.newest_age_s()))
 
     # --- diagnostics --------------------------------------------------------------------
