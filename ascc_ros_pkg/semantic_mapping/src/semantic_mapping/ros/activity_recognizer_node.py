@@ -19,6 +19,7 @@ import numpy as np
 import rospy
 from sensor_msgs.msg import Imu
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from semantic_mapping.activity import OnlineRecognizer, Recognizer, RecognizerNodeParams
 from semantic_mapping.alignment import SampleAligner
@@ -60,7 +61,10 @@ class ActivityRecognizerNode:
                              queue_size=50)
         rospy.Subscriber("activity_prior", ActivityPrior, self.on_prior, queue_size=1)
         cfg = self.rec.config
-        rospy.Timer(rospy.Duration(1.0 / cfg.rate_hz), self.on_tick)
+        # PacedTimer: wakes once per period, not on every /clock message of a simulator,
+        # and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timer = PacedTimer(1.0 / cfg.rate_hz, self.on_tick, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="recognize")
         rospy.loginfo("activity recognizer: %s (%s, %s features, %g s windows every %g s)",
                       p.model_path, cfg.kind, cfg.features, cfg.window_s, cfg.hop_s)
 
@@ -91,7 +95,7 @@ class ActivityRecognizerNode:
         with self.lock:
             self.prior = prior
 
-    def on_tick(self, _event):
+    def on_tick(self):
         with self.lock:
             missing = self.aligner.missing()
             rows = self.aligner.rows(rospy.get_time())

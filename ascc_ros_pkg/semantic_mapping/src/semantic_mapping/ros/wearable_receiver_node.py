@@ -10,6 +10,7 @@ import time
 import rospy
 from sensor_msgs.msg import Imu
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from irobot_create_2_1.link import SerialLink
 from semantic_mapping.ros import run
@@ -33,7 +34,10 @@ class WearableReceiverNode:
         self.reader = threading.Thread(target=self.read_loop, name="xbee_reader",
                                        daemon=True)
         self.reader.start()
-        rospy.Timer(rospy.Duration(CHECK_PERIOD_S), self.on_check)
+        # PacedTimer: wakes once per period, not on every /clock message of a simulator,
+        # and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timer = PacedTimer(CHECK_PERIOD_S, self.on_check, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="check")
         rospy.loginfo("wearable receiver: %s at %d baud, sensors %s", p.port, p.baud,
                       ", ".join("0x%04X=%s" % kv for kv in zip(p.sensor_ids, p.sensor_names)))
 
@@ -64,7 +68,7 @@ class WearableReceiverNode:
                 out = self.core.feed(data, now.to_sec())
             self.emit(out, now)
 
-    def on_check(self, _event):
+    def on_check(self):
         now = rospy.Time.now()
         with self.lock:
             out = self.core.check(now.to_sec())
