@@ -20,6 +20,7 @@ import rospy
 from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import String
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import yaw_of
 from ascc_eval.follow_eval import FollowMonitorParams, FollowRecord, FollowSample
@@ -45,7 +46,10 @@ class FollowMonitor:
         rospy.Subscriber("ground_truth/people", SimObjectArray, self._on_people, queue_size=5)
         rospy.Subscriber("target_follower/state", String, self._on_state, queue_size=5)
         rospy.Subscriber("sensorPacket", SensorPacket, self._on_sensors, queue_size=20)
-        self.timer = rospy.Timer(rospy.Duration(self.p.sample_period_s), self._sample)
+        # PacedTimer: wakes once per sample, not on every /clock message (ascc_common.
+        # paced_timer), beside the follow pipeline it measures
+        self.timer = PacedTimer(self.p.sample_period_s, self._sample, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="sample")
         rospy.on_shutdown(lambda: self._finish("shutdown"))
 
     def _on_pose(self, msg):
@@ -71,7 +75,7 @@ class FollowMonitor:
             rospy.logwarn("follow_monitor: bumper hit at t=%.1f s" % rospy.get_time())
         self.bumping = hit
 
-    def _sample(self, _event):
+    def _sample(self):
         if self.finished or self.robot is None or self.person is None:
             return
         t = rospy.get_time()
