@@ -26,6 +26,7 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import ParamError, from_params, nested, param
 from ascc_common.throttle import Throttle
 from ascc_navigation.mapper import ScanInput, check_scan
@@ -70,7 +71,10 @@ class GestureControlNode:
         rospy.Subscriber("gesture", Gesture, self.on_gesture, queue_size=5)
         rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=1)
         rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=5)
-        self.timer = rospy.Timer(rospy.Duration(1.0 / self.p.control.rate_hz), self.on_timer)
+        # PacedTimer: wakes once per period, not on every /clock message of a simulator,
+        # and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timer = PacedTimer(1.0 / self.p.control.rate_hz, self.on_timer, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="control")
         rospy.on_shutdown(self.on_shutdown)
 
     def on_gesture(self, msg):
@@ -89,7 +93,7 @@ class GestureControlNode:
         with self.lock:
             self.odom_xy, self.odom_t = (p.x, p.y), msg.header.stamp.to_sec()
 
-    def on_timer(self, _event):
+    def on_timer(self):
         with self.lock:
             now = rospy.get_time()
             self._take_gesture(now)
@@ -159,8 +163,9 @@ class GestureControlNode:
             rospy.logwarn("gesture_control: %s", text)
 
     def on_shutdown(self):
-        if self.ctl.state != IDLE:
-            self._send(0.0)
+        with self.lock:  # after a control step under way: its command goes out first
+            if self.ctl.state != IDLE:
+                self._send(0.0)
 
 
 def main():

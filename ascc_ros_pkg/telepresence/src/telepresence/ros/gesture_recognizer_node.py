@@ -26,6 +26,7 @@ import rospy
 from geometry_msgs.msg import Vector3Stamped
 from tf2_msgs.msg import TFMessage
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import ParamError, from_params, nested, param
 from ascc_common.throttle import Throttle
 from telepresence.gestures import (
@@ -69,7 +70,10 @@ class GestureRecognizerNode:
         self.gesture_pub = rospy.Publisher("gesture", Gesture, queue_size=10)
         self.angles_pub = rospy.Publisher("~angles", Vector3Stamped, queue_size=30)
         rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=100)
-        self.timer = rospy.Timer(rospy.Duration(1.0 / self.p.check_rate_hz), self.on_timer)
+        # PacedTimer: wakes once per period, not on every /clock message of a simulator,
+        # and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timer = PacedTimer(1.0 / self.p.check_rate_hz, self.on_timer, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="check")
         if problems:
             self.retry_timer = rospy.Timer(rospy.Duration(self.p.template_retry_s),
                                            self.on_retry)
@@ -124,7 +128,7 @@ class GestureRecognizerNode:
                 if problem:
                     self._warn("parent", problem)
 
-    def on_timer(self, _event):
+    def on_timer(self):
         with self.lock:
             now = rospy.get_time()
             if self.last_now is not None and now < self.last_now:

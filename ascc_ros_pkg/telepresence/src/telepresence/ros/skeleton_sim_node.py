@@ -18,6 +18,7 @@ import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from std_msgs.msg import String
 
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import ParamError, from_params
 from telepresence.skeleton_sim import SkeletonSimParams, SkeletonSource
 
@@ -46,7 +47,10 @@ class SkeletonSimNode:
             self.static_tf.sendTransform(_transform(
                 rospy.Time.now(), self.p.parent_frame, self.p.depth_frame,
                 (self.p.mount_x_m, 0.0, self.p.mount_z_m), 0.0))
-        self.timer = rospy.Timer(rospy.Duration(1.0 / self.p.rate_hz), self.on_timer)
+        # PacedTimer: wakes once per period, not on every /clock message of a simulator,
+        # and stops when the shutdown starts (ascc_common.paced_timer)
+        self.timer = PacedTimer(1.0 / self.p.rate_hz, self.on_timer, rospy.get_time,
+                                rospy.core.is_shutdown_requested, name="skeletons")
 
     def _start(self, now_s, user):
         seed = self.p.seed + self.round
@@ -59,7 +63,7 @@ class SkeletonSimNode:
         rospy.loginfo("skeleton_sim: script of %d episodes, %.1f s, seed %d",
                       len(self.source.script), self.source.end_s, seed)
 
-    def on_timer(self, _event):
+    def on_timer(self):
         now = rospy.Time.now()
         now_s = now.to_sec()
         if self.t0 is not None and now_s < self.t0:
