@@ -30,6 +30,7 @@ from std_msgs.msg import Bool, String
 from tornado import httpserver, ioloop, netutil, web, websocket
 
 from ascc_common.grid import map_from_msg
+from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_of
 from ascc_common.throttle import Throttle
@@ -279,7 +280,10 @@ class WebConsoleNode:
             rospy.Subscriber("e_stop", Bool, self.on_estop, queue_size=1),
             rospy.Subscriber("move_base/NavfnROS/plan", Path, self.on_path, queue_size=1),
         ]
-        self.pose_timer = rospy.Timer(rospy.Duration(0.1), self.on_pose_timer)
+        # PacedTimer: wakes once per period, not on every /clock message of a simulator,
+        # and stops when the shutdown starts (ascc_common.paced_timer)
+        self.pose_timer = PacedTimer(0.1, self.on_pose_timer, rospy.get_time,
+                                     rospy.core.is_shutdown_requested, name="pose")
         rospy.on_shutdown(self.on_shutdown)
 
     # -- the server thread --------------------------------------------------------------
@@ -384,7 +388,7 @@ class WebConsoleNode:
         with self.lock:
             self.path = [[round(x, 3), round(y, 3)] for x, y in thinned]
 
-    def on_pose_timer(self, _event):
+    def on_pose_timer(self):
         try:
             tf = self.tf_buffer.lookup_transform(self.p.map_frame, self.p.base_frame,
                                                  rospy.Time(0))
