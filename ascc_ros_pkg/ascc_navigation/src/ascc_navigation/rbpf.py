@@ -569,8 +569,8 @@ class _LikelihoodFields:
         iu = u.astype(np.int32)
         iv = v.astype(np.int32)
         # float64 offsets, so the arithmetic (and the match score) stays float64 as before:
-        # float32 cut another 10 % of the CPU, but the filter then took other paths and one
-        # corridor seed of bench_mapper broke (not judged over enough seeds to adopt it)
+        # float32 cut about a quarter more of the CPU, but the filter then took other paths
+        # (docs/results/ascc_navigation.md, "The matcher's lookups": not adopted)
         fu = u - iu
         fv = v - iv
         idx = iv * np.int32(self.w)

@@ -130,8 +130,8 @@ class SlamMapperNode:
             overflowed, received = self.overflowed, self.received
         if overflowed > self.overflow_reported:
             self.overflow_reported = overflowed
-            self.warn("slam_mapper: the filter fell more than %d scans behind the laser; %d "
-                      "of %d scans so far were dropped unseen (the CPU is short)"
+            self.warn("slam_mapper: the filter fell more than %d scans behind the laser (CPU "
+                      "short, or TF late); %d of %d scans so far were dropped unseen"
                       % (SCAN_BUFFER, overflowed, received))
         for scan in waiting:
             poses = self.lookup_poses(scan)
