@@ -451,7 +451,7 @@ def _corridor_world(length=40.0, width=3.0):
 
 
 def test_likelihood_lookup_is_bilinear_on_each_particles_field():
-    """interpolate / gradients against scipy's linear interpolation and central differences
+    """interpolate / gradients against scipy's linear interpolation and the corner cells
     on the fields' own distance images (two particles, their maps different)."""
     from scipy.ndimage import map_coordinates
     world = S.office_world()
