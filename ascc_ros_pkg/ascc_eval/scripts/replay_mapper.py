@@ -17,6 +17,11 @@ filter seed:
     slowly; a glitch of several degrees that comes and goes means odometry stamped at the
     wrong time while the robot turned (a driver starved of CPU reads a backlog late).
 
+With ``--start-turn`` it prints how the recorded mapper went through the run's first turn on
+the spot (the explorer's look round): radians turned, filter updates in the turn (changes of
+``map -> odom``) and the estimate's error just after it. A CPU-starved mapper updates
+rarely there (docs/results/ascc_navigation.md, "The start turn moves the frame").
+
 With ``--online-every-s S`` it also prints the recorded run's own mapper (``map -> odom`` in
 the bag, composed with the odometry) against the truth every S seconds: position and heading
 error beside the odometry's alone, to see where and when an online map went wrong.
@@ -28,7 +33,7 @@ filter.
 
     python3 scripts/replay_mapper.py RUN.bag [--seeds 0 1] [--set lskip=0] [--drop-late-s 0.5]
         [--out DIR]  (writes the replayed maps as map_server YAML + PGM)
-        [--online-every-s 40] [--seeds]  (no --seeds value: the online track only)
+        [--online-every-s 40] [--start-turn] [--seeds]  (no --seeds value: no replay)
 """
 import argparse
 import math
@@ -192,6 +197,49 @@ class RunBag:
                          float(wrap_angle(est[2] - true[2]))))
         return rows
 
+    def start_turn(self, within_s=25.0, moving_rad=0.05, settled_radps=0.1, after_s=1.0):
+        """The recorded mapper through the run's first turn on the spot (the explorer's look
+        round at the start), or None without one, a map -> odom or the truth. The turn starts
+        where the odometry's heading first differs by ``moving_rad`` from the first scan's,
+        within ``within_s`` of it, and ends where the heading rate (over 0.5 s) stays below
+        ``settled_radps`` for two steps. Returns a dict: ``start_s`` (from the first scan),
+        ``duration_s``, ``turned_rad``, ``updates`` (changes of the recorded map -> odom in
+        the turn: one per filter update), ``rad_per_update`` and ``error_after`` (x, y [m]:
+        the recorded estimate minus the truth in the world, ``after_s`` after the turn; the
+        map frame placed by the truth at the first scan, as for the replay)."""
+        if self.truth is None or self.map_odom is None:
+            return None
+        t0 = next((s for s, _ in self.scans if self.odom_at(s) is not None), None)
+        if t0 is None:
+            return None
+        o = self.odom
+        sel = (o[:, 0] >= t0) & (o[:, 0] <= t0 + within_s)
+        t, yaw = o[sel, 0], np.unwrap(o[sel, 3])
+        moved = np.abs(yaw - yaw[0]) > moving_rad
+        if t.size < 2 or not moved.any():
+            return None
+        start = t[np.argmax(moved)]
+        grid = np.arange(start, t[-1], 0.5)
+        rate = np.abs(np.diff(np.interp(grid, t, yaw))) / 0.5
+        calm = np.nonzero((rate[1:] < settled_radps) & (rate[:-1] < settled_radps))[0]
+        end = grid[calm[0] + 1] if calm.size else grid[-1]
+        turned = abs(float(np.interp(end, t, yaw) - np.interp(start, t, yaw)))
+        m = self.map_odom
+        changed = np.nonzero(np.any(np.abs(np.diff(m[:, 1:], axis=0)) > 1e-9, axis=1))[0] + 1
+        updates = int(np.count_nonzero((m[changed, 0] >= start) & (m[changed, 0] <= end)))
+        world_from_map = self.world_from_map(t0, self.odom_at(t0))
+        at = end + after_s
+        odom = self.odom_at(at)
+        error = (math.nan, math.nan)
+        if odom is not None:
+            est = compose(world_from_map, compose(self.map_odom_at(at), odom))
+            true = self.truth_at(at)
+            error = (float(est[0] - true[0]), float(est[1] - true[1]))
+        return {"start_s": float(start - t0), "duration_s": float(end - start),
+                "turned_rad": turned, "updates": updates,
+                "rad_per_update": turned / updates if updates else math.inf,
+                "error_after": error}
+
     def tf_lateness(self):
         """Per scan: how long after its stamp the first odometry TF at or after the stamp was
         received [s] (inf if never)."""
@@ -278,6 +326,9 @@ def main():
     ap.add_argument("--online-every-s", type=float, default=0.0,
                     help="print the recorded mapper's pose error against the truth every "
                          "this many seconds of the run; 0: off")
+    ap.add_argument("--start-turn", action="store_true",
+                    help="print how the recorded mapper went through the run's first turn "
+                         "on the spot: filter updates per radian and its error after it")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     params = parameters_from_arguments(ap, args)
@@ -307,6 +358,15 @@ def main():
             for t, x, y, th, oe, oh, me, mh in rows:
                 print("%7.0f %7.1f %6.1f %5.2f %9.2fm %7.3f %9.2fm %7.3f"
                       % (t, x, y, th, oe, oh, me, mh))
+    if args.start_turn:
+        turn = run.start_turn()
+        if turn is None:
+            print("start turn: none in the first 25 s, or the bag has no map -> odom or truth")
+        else:
+            print("start turn at %.1f s: %.2f rad in %.1f s, %d filter updates (%.2f rad "
+                  "each); the recorded estimate 1 s after it: (%+.2f, %+.2f) m off the truth"
+                  % (turn["start_s"], turn["turned_rad"], turn["duration_s"], turn["updates"],
+                     turn["rad_per_update"], *turn["error_after"]))
     if not args.seeds:
         return
     print("%4s %7s %7s %6s %8s %8s %8s %8s %8s %10s" % (

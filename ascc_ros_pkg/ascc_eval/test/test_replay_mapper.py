@@ -106,3 +106,45 @@ def test_online_track_is_empty_without_map_to_odom(tmp_path):
             scan.header.stamp = now
             bag.write("/scan", scan, now)
     assert replay_mapper.RunBag(path).online_track(1.0) == []
+
+
+def test_start_turn_counts_the_updates_in_the_first_turn_and_the_error_after_it(tmp_path):
+    """A robot that stands 1 s, turns on the spot at 0.7 rad/s for 5 s and stands again; the
+    recorded map -> odom (sent at 10 Hz) changes three times in the turn, to a final shift
+    of 0.3 m along x; the truth is the odometry moved to START, so that shift is the
+    estimate's error after the turn."""
+    path = str(tmp_path / "turn.bag")
+    turn_from, turn_to, rate = 1.0, 6.0, 0.7
+    shifts = [(0.0, 0.0), (2.0, 0.1), (3.5, 0.2), (5.0, 0.3)]  # (from t [s], x [m])
+    with rosbag.Bag(path, "w") as bag:
+        bag.write("/tf_static", TFMessage([_tf(T0, "base_link", "laser", 0.1, 0.0, 0.0)]),
+                  rospy.Time.from_sec(T0))
+        for k in range(0, 101):  # 10 s at 10 Hz
+            t = 0.1 * k
+            now = rospy.Time.from_sec(T0 + t)
+            yaw = rate * (min(max(t, turn_from), turn_to) - turn_from)
+            bag.write("/tf", TFMessage([_tf(T0 + t, "odom", "base_link", 0.0, 0.0, yaw)]), now)
+            shift = [x for since, x in shifts if t >= since - 1e-9][-1]
+            bag.write("/tf", TFMessage([_tf(T0 + t, "map", "odom", shift, 0.0, 0.0)]), now)
+            truth = PoseStamped()
+            truth.header.stamp = now
+            truth.pose.position.x, truth.pose.position.y = START
+            (truth.pose.orientation.x, truth.pose.orientation.y, truth.pose.orientation.z,
+             truth.pose.orientation.w) = quaternion_from_yaw(yaw)
+            bag.write("/ground_truth/asccbot/pose", truth, now)
+            if k >= 1:
+                scan = LaserScan(ranges=[1.0] * 5, range_min=0.02, range_max=4.0)
+                scan.header.stamp = now
+                scan.header.frame_id = "laser"
+                bag.write("/scan", scan, now)
+    turn = replay_mapper.RunBag(path).start_turn()
+    assert turn["start_s"] == pytest.approx(turn_from, abs=0.15)   # from the first scan
+    assert turn["turned_rad"] == pytest.approx(rate * (turn_to - turn_from), abs=0.1)
+    assert turn["duration_s"] == pytest.approx(turn_to - turn_from, abs=0.6)
+    assert turn["updates"] == 3
+    assert turn["rad_per_update"] == pytest.approx(turn["turned_rad"] / 3)
+    assert turn["error_after"] == pytest.approx((0.3, 0.0), abs=1e-6)
+
+
+def test_start_turn_is_none_without_a_turn(bag_path):
+    assert replay_mapper.RunBag(bag_path).start_turn() is None  # drives straight
