@@ -35,36 +35,50 @@ def _tf(stamp, parent, child, x, y, yaw):
     return t
 
 
-@pytest.fixture(scope="module")
-def bag_path(tmp_path_factory):
-    path = str(tmp_path_factory.mktemp("replay") / "run.bag")
+def _write_run(path, odom_at, map_odom_at, truth_at):
+    """A 10 s run at 10 Hz from bag time T0: the laser's mount, then per tick k (t = 0.1 k
+    [s]) odom -> base_link at ``odom_at(t)`` (x, y, yaw), map -> odom at ``map_odom_at(k,
+    t)`` (None: not sent this tick), the truth at ``truth_at(t)`` (world frame) and, from the
+    second tick on (the first scan after the first odometry), a five-beam scan."""
     with rosbag.Bag(path, "w") as bag:
         bag.write("/tf_static", TFMessage([_tf(T0, "base_link", "laser", 0.1, 0.0, 0.0)]),
                   rospy.Time.from_sec(T0))
-        for k in range(0, 101):  # 10 s at 10 Hz
+        for k in range(0, 101):
             t = 0.1 * k
             now = rospy.Time.from_sec(T0 + t)
-            bag.write("/tf", TFMessage([_tf(T0 + t, "odom", "base_link", SCALE * t, 0.0,
-                                            DRIFT * t)]), now)
-            if k % 5 == 0:
-                jumped = t >= JUMP_AT
-                bag.write("/tf", TFMessage([_tf(T0 + t, "map", "odom", JUMP_X * jumped, 0.0,
-                                                JUMP_YAW * jumped)]), now)
+            bag.write("/tf", TFMessage([_tf(T0 + t, "odom", "base_link", *odom_at(t))]), now)
+            map_odom = map_odom_at(k, t)
+            if map_odom is not None:
+                bag.write("/tf", TFMessage([_tf(T0 + t, "map", "odom", *map_odom)]), now)
+            x, y, yaw = truth_at(t)
             truth = PoseStamped()
             truth.header.stamp = now
             truth.header.frame_id = "world"
-            truth.pose.position.x, truth.pose.position.y = START[0] + t, START[1]
-            truth.pose.orientation.w = 1.0
+            truth.pose.position.x, truth.pose.position.y = x, y
+            (truth.pose.orientation.x, truth.pose.orientation.y, truth.pose.orientation.z,
+             truth.pose.orientation.w) = quaternion_from_yaw(yaw)
             bag.write("/ground_truth/asccbot/pose", truth, now)
-            if k >= 1:  # the first scan after the first odometry
-                scan = LaserScan()
+            if k >= 1:
+                scan = LaserScan(ranges=[1.0] * 5, range_min=0.02, range_max=4.0,
+                                 angle_min=-1.0, angle_increment=0.5)
                 scan.header.stamp = now
                 scan.header.frame_id = "laser"
-                scan.angle_min, scan.angle_increment = -1.0, 0.5
-                scan.range_min, scan.range_max = 0.02, 4.0
-                scan.ranges = [1.0] * 5
                 bag.write("/scan", scan, now)
     return path
+
+
+@pytest.fixture(scope="module")
+def bag_path(tmp_path_factory):
+    """Driving +x at 1 m/s; map -> odom sent every 5th tick, jumping at JUMP_AT."""
+    def map_odom(k, t):
+        if k % 5:
+            return None
+        jumped = t >= JUMP_AT
+        return JUMP_X * jumped, 0.0, JUMP_YAW * jumped
+
+    return _write_run(str(tmp_path_factory.mktemp("replay") / "run.bag"),
+                      lambda t: (SCALE * t, 0.0, DRIFT * t), map_odom,
+                      lambda t: (START[0] + t, START[1], 0.0))
 
 
 def test_online_track_separates_the_mapper_from_the_odometry(bag_path):
@@ -113,30 +127,16 @@ def test_start_turn_counts_the_updates_in_the_first_turn_and_the_error_after_it(
     recorded map -> odom (sent at 10 Hz) changes three times in the turn, to a final shift
     of 0.3 m along x; the truth is the odometry moved to START, so that shift is the
     estimate's error after the turn."""
-    path = str(tmp_path / "turn.bag")
     turn_from, turn_to, rate = 1.0, 6.0, 0.7
     shifts = [(0.0, 0.0), (2.0, 0.1), (3.5, 0.2), (5.0, 0.3)]  # (from t [s], x [m])
-    with rosbag.Bag(path, "w") as bag:
-        bag.write("/tf_static", TFMessage([_tf(T0, "base_link", "laser", 0.1, 0.0, 0.0)]),
-                  rospy.Time.from_sec(T0))
-        for k in range(0, 101):  # 10 s at 10 Hz
-            t = 0.1 * k
-            now = rospy.Time.from_sec(T0 + t)
-            yaw = rate * (min(max(t, turn_from), turn_to) - turn_from)
-            bag.write("/tf", TFMessage([_tf(T0 + t, "odom", "base_link", 0.0, 0.0, yaw)]), now)
-            shift = [x for since, x in shifts if t >= since - 1e-9][-1]
-            bag.write("/tf", TFMessage([_tf(T0 + t, "map", "odom", shift, 0.0, 0.0)]), now)
-            truth = PoseStamped()
-            truth.header.stamp = now
-            truth.pose.position.x, truth.pose.position.y = START
-            (truth.pose.orientation.x, truth.pose.orientation.y, truth.pose.orientation.z,
-             truth.pose.orientation.w) = quaternion_from_yaw(yaw)
-            bag.write("/ground_truth/asccbot/pose", truth, now)
-            if k >= 1:
-                scan = LaserScan(ranges=[1.0] * 5, range_min=0.02, range_max=4.0)
-                scan.header.stamp = now
-                scan.header.frame_id = "laser"
-                bag.write("/scan", scan, now)
+
+    def yaw(t):
+        return rate * (min(max(t, turn_from), turn_to) - turn_from)
+
+    path = _write_run(str(tmp_path / "turn.bag"), lambda t: (0.0, 0.0, yaw(t)),
+                      lambda k, t: ([x for since, x in shifts if t >= since - 1e-9][-1], 0.0,
+                                    0.0),
+                      lambda t: (START[0], START[1], yaw(t)))
     turn = replay_mapper.RunBag(path).start_turn()
     assert turn["start_s"] == pytest.approx(turn_from, abs=0.15)   # from the first scan
     assert turn["turned_rad"] == pytest.approx(rate * (turn_to - turn_from), abs=0.1)
