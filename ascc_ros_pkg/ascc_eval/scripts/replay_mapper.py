@@ -66,6 +66,7 @@ from ascc_navigation.grid import map_agreement  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
 
 GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading drift
+START_TURN_WITHIN_S = 25.0  # [s] --start-turn looks for the turn this long from the start
 
 
 class RunBag:
@@ -171,6 +172,15 @@ class RunBag:
             return None
         return m[max(int(np.searchsorted(m[:, 0], t, side="right")) - 1, 0), 1:]
 
+    def map_frame(self):
+        """(stamp of the first scan with odometry, the map frame in the world): the map frame
+        is the odometry frame there, placed by the truth (as for the replay); (None, None)
+        without such a scan."""
+        t0 = next((s for s, _ in self.scans if self.odom_at(s) is not None), None)
+        if t0 is None:
+            return None, None
+        return t0, self.world_from_map(t0, self.odom_at(t0))
+
     def online_track(self, every_s):
         """The recorded run's own estimate against the truth every ``every_s`` [s] from the
         first scan: rows (t, true x, y, theta in the map frame, odometry position error [m],
@@ -179,10 +189,10 @@ class RunBag:
         replay), placed in the world by the truth there."""
         if self.truth is None or self.map_odom is None:
             return []
-        t0 = next((s for s, _ in self.scans if self.odom_at(s) is not None), None)
+        t0, world_from_map = self.map_frame()
         if t0 is None:
             return []
-        map_from_world = inverse(self.world_from_map(t0, self.odom_at(t0)))
+        map_from_world = inverse(world_from_map)
         rows = []
         for t in np.arange(t0, min(self.odom[-1, 0], self.truth[-1, 0]), every_s):
             odom = self.odom_at(t)
@@ -197,7 +207,8 @@ class RunBag:
                          float(wrap_angle(est[2] - true[2]))))
         return rows
 
-    def start_turn(self, within_s=25.0, moving_rad=0.05, settled_radps=0.1, after_s=1.0):
+    def start_turn(self, within_s=START_TURN_WITHIN_S, moving_rad=0.05, settled_radps=0.1,
+                   after_s=1.0):
         """The recorded mapper through the run's first turn on the spot (the explorer's look
         round at the start), or None without one, a map -> odom or the truth. The turn starts
         where the odometry's heading first differs by ``moving_rad`` from the first scan's,
@@ -209,7 +220,7 @@ class RunBag:
         map frame placed by the truth at the first scan, as for the replay)."""
         if self.truth is None or self.map_odom is None:
             return None
-        t0 = next((s for s, _ in self.scans if self.odom_at(s) is not None), None)
+        t0, world_from_map = self.map_frame()
         if t0 is None:
             return None
         o = self.odom
@@ -227,7 +238,6 @@ class RunBag:
         m = self.map_odom
         changed = np.nonzero(np.any(np.abs(np.diff(m[:, 1:], axis=0)) > 1e-9, axis=1))[0] + 1
         updates = int(np.count_nonzero((m[changed, 0] >= start) & (m[changed, 0] <= end)))
-        world_from_map = self.world_from_map(t0, self.odom_at(t0))
         at = end + after_s
         odom = self.odom_at(at)
         error = (math.nan, math.nan)
@@ -361,7 +371,8 @@ def main():
     if args.start_turn:
         turn = run.start_turn()
         if turn is None:
-            print("start turn: none in the first 25 s, or the bag has no map -> odom or truth")
+            print("start turn: none in the first %.0f s, or the bag has no map -> odom or "
+                  "truth" % START_TURN_WITHIN_S)
         else:
             print("start turn at %.1f s: %.2f rad in %.1f s, %d filter updates (%.2f rad "
                   "each); the recorded estimate 1 s after it: (%+.2f, %+.2f) m off the truth"

@@ -508,6 +508,11 @@ def _bilinear_coefficients(dist: np.ndarray, w: int) -> np.ndarray:
     return coef.view(np.complex128).reshape(n)
 
 
+def _bilinear(c: np.ndarray, fu: np.ndarray, fv: np.ndarray) -> np.ndarray:
+    """The patches ``c`` (..., 4: ``_bilinear_coefficients``) at offsets fu, fv in their cells."""
+    return c[..., 0] + fu * c[..., 1] + fv * (c[..., 2] + fu * c[..., 3])
+
+
 class _LikelihoodFields:
     """Per-particle distance fields (distance [m] from each cell to the nearest occupied cell
     of that particle's map, capped at the match radius) over one common window, stacked as a
@@ -556,8 +561,7 @@ class _LikelihoodFields:
     def interpolate(self, u: np.ndarray, v: np.ndarray, particle: np.ndarray) -> np.ndarray:
         """Bilinear distance [m] at window cell coordinates u, v (n, K, M) of particles
         ``particle`` (n,); modifies u and v. Off-window points clamp to the border."""
-        c, fu, fv = self._corners(u, v, particle[:, None, None])
-        return c[..., 0] + fu * c[..., 1] + fv * (c[..., 2] + fu * c[..., 3])
+        return _bilinear(*self._corners(u, v, particle[:, None, None]))
 
     def _corners(self, u: np.ndarray, v: np.ndarray, particle: np.ndarray
                  ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -592,8 +596,7 @@ class _LikelihoodFields:
         inv = np.float32(1.0 / self.res)
         gx = (c[..., 1] + fv * c[..., 3]) * inv
         gy = (c[..., 2] + fu * c[..., 3]) * inv
-        d = c[..., 0] + fu * c[..., 1] + fv * (c[..., 2] + fu * c[..., 3])
-        return d, gx, gy, ru * self.res, rv * self.res
+        return _bilinear(c, fu, fv), gx, gy, ru * self.res, rv * self.res
 
     def distances(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
         """Interpolated distance [m] at the end points ``pts`` (M, 2, base frame) for poses

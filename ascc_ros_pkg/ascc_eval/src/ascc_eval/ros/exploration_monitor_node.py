@@ -163,7 +163,7 @@ class Monitor:
         now = rospy.get_time()
         if self.t_start is None and now > 0.0:
             self.t_start = now
-        if (self.max_time > 0.0 and self.t_start is not None and not self.finished
+        if (self.max_time > 0.0 and self.t_start is not None
                 and now - self.t_start >= self.max_time):
             rospy.logwarn("exploration_monitor: ~max_time_s %.0f s reached" % self.max_time)
             self._finish("max_time")
