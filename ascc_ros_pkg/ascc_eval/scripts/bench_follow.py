@@ -32,7 +32,8 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.realpath(__file__)),
                                     "..", "..", ".."))
 KEYS = ("straight_error_mean_m", "straight_error_p95_m", "straight_error_max_m",
         "straight_within_band", "distance_min_m", "bumps", "corners_reacquired",
-        "person_path_m", "end_reason")
+        "person_path_m", "end_reason", "detection_fraction", "detected_range_error_p95_m",
+        "followed_range_error_p95_m")
 
 
 def run_one(world, seed, rtf, out, port, timeout_s, max_time_s, follower_params="",
@@ -63,19 +64,22 @@ def fmt(v, spec="%.2f"):
 
 
 def summarise(rows):
-    print("\n%-14s %4s %7s %7s %7s %7s %6s %5s %8s %7s" % (
+    print("\n%-14s %4s %7s %7s %7s %7s %6s %5s %8s %7s %6s %7s %7s" % (
         "world", "seed", "mean", "p95", "max", "in band", "min d", "bumps", "corners",
-        "path"))
+        "path", "seen", "det p95", "fol p95"))
     for r in rows:
         if "error" in r:
             print("%-14s %4d  %s" % (r["world"], r["seed"], r["error"]))
             continue
-        print("%-14s %4d %6sm %6sm %6sm %6s%% %5sm %5d %4d/%-3d %6sm" % (
+        print("%-14s %4d %6sm %6sm %6sm %6s%% %5sm %5d %4d/%-3d %6sm %5s%% %6sm %6sm" % (
             r["world"], r["seed"], fmt(r["straight_error_mean_m"]),
             fmt(r["straight_error_p95_m"]), fmt(r["straight_error_max_m"]),
             fmt(100 * r["straight_within_band"] if r["straight_within_band"] is not None
                 else None, "%.0f"), fmt(r["distance_min_m"]), r["bumps"],
-            r["corners_reacquired"], r["corners"], fmt(r["person_path_m"], "%.1f")))
+            r["corners_reacquired"], r["corners"], fmt(r["person_path_m"], "%.1f"),
+            fmt(100 * r["detection_fraction"] if r.get("detection_fraction") is not None
+                else None, "%.0f"),
+            fmt(r.get("detected_range_error_p95_m")), fmt(r.get("followed_range_error_p95_m"))))
     ok = [r for r in rows if "error" not in r and r["straight_error_mean_m"] is not None]
     if ok:
         def mean(k):
@@ -88,7 +92,9 @@ def summarise(rows):
             fmt(min(r["distance_min_m"] for r in ok)), sum(r["bumps"] for r in ok),
             sum(r["corners_reacquired"] for r in ok), sum(r["corners"] for r in ok)))
         print("(mean: mean over runs of each run's mean error; p95, max: the worst run's; "
-              "in band: mean share of straight samples within +-band)")
+              "in band: mean share of straight samples within +-band; seen: share of "
+              "samples with a detection; det / fol p95: 95th percentile of the detector's / "
+              "the followed point's range error against the true distance)")
 
 
 def main(argv=None):

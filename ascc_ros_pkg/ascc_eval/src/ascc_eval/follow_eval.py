@@ -14,12 +14,19 @@ change of the walking direction by more than ``corner_min_rad``; after each, the
 gives how long the follower was not ``following`` within ``reacquire_window_s`` and
 whether it was following again at the window's end.
 
+Beside the truth, a sample may carry what the follower believed at that time: the
+detector's best detection and the point the follower steered for, each as a range from
+``base_link`` and a bearing. The record compares them with the true distance and bearing,
+so that a run that kept the wrong distance shows whether the detector or the tracking
+misjudged the person.
+
 Pure: no rospy. ``follow_monitor`` feeds it from topics; the rostest and the benchmark
 read its summary.
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -57,6 +64,8 @@ class FollowMonitorParams:
                                           "this long (longer than any stop on a route: "
                                           "its route ended)", ge=0.0)
     shutdown_when_finished: bool = param(True, "exit when the run ends")
+    belief_max_age_s: float = param(0.5, "[s] a detection or followed point older than "
+                                         "this is not recorded with a sample", gt=0.0)
 
 
 @dataclass
@@ -67,6 +76,15 @@ class FollowSample:
     person_speed_mps: float
     person_radius_m: float
     state: str  # the follower's state at that time ('' unknown)
+    # the follower's belief, when fresh, else NaN: range [m] from base_link's origin and
+    # bearing [rad] from base_link's x axis of the detector's best detection, with the
+    # detection's range source ('laser', 'size', 'none'; '' no detection), and of the
+    # point the follower steered for (target_follower/followed)
+    detected_range_m: float = math.nan
+    detected_bearing_rad: float = math.nan
+    range_source: str = ""
+    followed_range_m: float = math.nan
+    followed_bearing_rad: float = math.nan
 
 
 class FollowRecord:
@@ -93,9 +111,39 @@ class FollowRecord:
         person = np.array([x.person for x in s], float).reshape(-1, 3)
         speed = np.array([x.person_speed_mps for x in s], float)
         radius = np.array([x.person_radius_m for x in s], float)
-        dist = np.hypot(*(person[:, :2] - robot[:, :2]).T) - radius
+        rel = person[:, :2] - robot[:, :2]
+        dist = np.hypot(*rel.T) - radius
+        bearing = wrap_angle(np.arctan2(rel[:, 1], rel[:, 0]) - robot[:, 2])
         return {"t": t, "robot": robot, "person": person, "speed": speed, "distance": dist,
-                "state": np.array([x.state for x in s], dtype=object)}
+                "bearing": bearing,
+                "state": np.array([x.state for x in s], dtype=object),
+                "detected_range": np.array([x.detected_range_m for x in s], float),
+                "detected_bearing": np.array([x.detected_bearing_rad for x in s], float),
+                "range_source": np.array([x.range_source for x in s], dtype=object),
+                "followed_range": np.array([x.followed_range_m for x in s], float),
+                "followed_bearing": np.array([x.followed_bearing_rad for x in s], float)}
+
+    def belief_errors(self, a: Optional[Dict[str, np.ndarray]] = None
+                      ) -> Dict[str, Optional[float]]:
+        """How far the follower's view was from the truth, over the samples that had one:
+        the detector's range minus the true distance to the person's surface (median and
+        95th percentile of the absolute error [m]), its bearing error [rad], and the same
+        for the followed point; with the share of samples that had a detection."""
+        a = self.arrays() if a is None else a
+        out: Dict[str, Optional[float]] = {}
+        has = np.isfinite(a["detected_bearing"])
+        out["detection_fraction"] = _r(np.mean(has)) if has.size else None
+        for name in ("detected", "followed"):
+            for what, err in (
+                    ("range", a[name + "_range"] - a["distance"]),
+                    ("bearing", wrap_angle(a[name + "_bearing"] - a["bearing"]))):
+                e = np.abs(err[np.isfinite(err)])
+                unit = "m" if what == "range" else "rad"
+                out["%s_%s_error_median_%s" % (name, what, unit)] = (
+                    _r(np.median(e)) if e.size else None)
+                out["%s_%s_error_p95_%s" % (name, what, unit)] = (
+                    _r(np.percentile(e, 95)) if e.size else None)
+        return out
 
     def straight_mask(self, t: np.ndarray, heading: np.ndarray,
                       walking: np.ndarray) -> np.ndarray:
@@ -162,13 +210,17 @@ class FollowRecord:
             "bumps": len(self.bump_times),
             "end_reason": self.end_reason,
         }
+        out.update(self.belief_errors(a))
         return out
 
     # -- files ------------------------------------------------------------------------
     def write(self, out_dir: str, stem: str = "") -> List[str]:
         """``<stem>.json`` (the summary), ``<stem>.csv`` (the samples: t [s], the robot's
         and the person's true x, y [m] and yaw/heading [rad], the distance [m], the
-        follower's state) and ``<stem>.png`` (paths and distance over time)."""
+        follower's state, the person's true bearing from the robot [rad], the detector's
+        range [m], bearing [rad] and range source, the followed point's range and bearing;
+        empty where the follower had none) and ``<stem>.png`` (paths, and distance over
+        time with what the follower saw)."""
         os.makedirs(out_dir, exist_ok=True)
         stem = stem or _file_safe(self.label)
         js = os.path.join(out_dir, stem + ".json")
@@ -180,11 +232,16 @@ class FollowRecord:
             csv_path = os.path.join(out_dir, stem + ".csv")
             with open(csv_path, "w") as f:
                 f.write("t_s,robot_x_m,robot_y_m,robot_yaw_rad,person_x_m,person_y_m,"
-                        "person_heading_rad,distance_m,state\n")
+                        "person_heading_rad,distance_m,state,bearing_rad,detected_range_m,"
+                        "detected_bearing_rad,range_source,followed_range_m,"
+                        "followed_bearing_rad\n")
                 for k in range(a["t"].size):
-                    f.write("%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%s\n" % (
+                    f.write("%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%s,%.4f,%s,%s,%s,%s,%s\n" % (
                         (a["t"][k],) + tuple(a["robot"][k]) + tuple(a["person"][k])
-                        + (a["distance"][k], a["state"][k])))
+                        + (a["distance"][k], a["state"][k], a["bearing"][k],
+                           _csv(a["detected_range"][k]), _csv(a["detected_bearing"][k]),
+                           a["range_source"][k], _csv(a["followed_range"][k]),
+                           _csv(a["followed_bearing"][k]))))
             files.append(csv_path)
             png = os.path.join(out_dir, stem + ".png")
             self.plot(png)
@@ -218,6 +275,12 @@ class FollowRecord:
         ax1.plot(t, a["distance"], "-", color="0.5", lw=1, label="distance")
         ax1.plot(t[straight], a["distance"][straight], ".", ms=2, color="tab:blue",
                  label="straight segments")
+        if np.isfinite(a["detected_range"]).any():
+            ax1.plot(t, a["detected_range"], ".", ms=1.5, color="tab:red",
+                     label="detector's range")
+        if np.isfinite(a["followed_range"]).any():
+            ax1.plot(t, a["followed_range"], "-", lw=0.8, color="tab:purple",
+                     label="followed point's range")
         d, b = self.p.distance_m, self.p.band_m
         ax1.axhspan(d - b, d + b, color="tab:green", alpha=0.15, label="set point +- band")
         for c in self.corners(a["t"], a["person"][:, 2], walking):
@@ -236,6 +299,11 @@ def _path_length(xy: np.ndarray) -> float:
 
 def _r(x: float) -> float:
     return round(float(x), 3)
+
+
+def _csv(x: float) -> str:
+    """A CSV cell: 4 decimals, empty for NaN (no value)."""
+    return "%.4f" % x if math.isfinite(x) else ""
 
 
 def _file_safe(label: str) -> str:
