@@ -7,7 +7,16 @@ import pytest
 from ascc_common.camera_model import PanoramicCamera
 from target_follower import synthetic as S
 from target_follower.cli import make_detector
-from target_follower.detections import RANGE_LASER, RANGE_NONE, RANGE_SIZE, SHAPES, Scan, locate
+from target_follower.detections import (
+    RANGE_LASER,
+    RANGE_NONE,
+    RANGE_SIZE,
+    SHAPES,
+    Scan,
+    cut_off,
+    locate,
+    size_range,
+)
 
 CAM = PanoramicCamera()
 
@@ -150,3 +159,29 @@ def test_laser_range_of_a_turning_robot_uses_the_pictures_time(turn_rad):
 def test_motion_between_is_identity_when_standing_still():
     from target_follower.detections import motion_between
     assert motion_between((1.0, 2.0, 3.0), (1.0, 2.0, 3.0)) == pytest.approx((0, 0, 0))
+
+
+@pytest.mark.parametrize("range_m", [0.8, 1.0])
+def test_a_shirt_cut_off_by_the_picture_takes_the_lasers_nearer_range(range_m):
+    """Nearer than ~1.35 m the shirt's top leaves the picture: its extent is short and the
+    size estimate too long (an upper bound). The laser's hits on the person, well below
+    that estimate, give the range; the wall 2 m behind the ray does not."""
+    b = 0.3
+    img = np.full((CAM.height_px, CAM.width_px, 3), 110, np.uint8)
+    S.draw_person(img, CAM, b, range_m)
+    (shirt,) = make_detector("shirt", strip_height_px=CAM.strip_height_px).detect(img)[:1]
+    assert cut_off(CAM, shirt)
+    est = size_range(CAM, shirt, SHAPES["shirt"])
+    assert est > range_m + 0.3  # the estimate alone is off by more than the follower's band
+    centre = (range_m + 0.2) * np.array([math.cos(b), math.sin(b)])
+    scan = scan_with_circle(centre, 0.2, laser_pose=(0.0, 0.0, 0.0), wall_m=range_m + 2.0)
+    loc = locate(CAM, shirt, SHAPES["shirt"], scan)
+    assert loc.range_source == RANGE_LASER
+    assert abs(loc.range_m - range_m) < 0.06, (loc.range_m, est)
+
+
+def test_a_whole_shirt_is_not_cut_off():
+    img = np.full((CAM.height_px, CAM.width_px, 3), 110, np.uint8)
+    S.draw_person(img, CAM, -0.4, 2.0)
+    (shirt,) = make_detector("shirt", strip_height_px=CAM.strip_height_px).detect(img)[:1]
+    assert not cut_off(CAM, shirt)

@@ -7,7 +7,9 @@ strip of its centroid, and its top and bottom rows are read in that strip). The 
 1. **laser** (``RANGE_LASER``): the scan's beams, transformed into base_link with the
    laser's pose there, whose hit points lie within ``radius_m`` of the camera ray towards
    the target and whose distance along the ray is within ``gate_m`` of the size estimate
-   (the beam hits the target, not the wall behind it or an obstacle in front); of those,
+   (the beam hits the target, not the wall behind it or an obstacle in front; for a blob
+   cut off by its strip's top or bottom row, anywhere nearer than that too: see below);
+   of those,
    the nearest group (sorted along the ray, split where consecutive hits are more than
    ``CLUSTER_GAP_M`` apart; the first group of at least two hits): a real laser sees a
    person's legs, two thin posts, and a wall 0.3 m behind them has more hits within the
@@ -17,6 +19,15 @@ strip of its centroid, and its top and bottom rows are read in that strip). The 
    ``range_from_floor_contact``), the shirt and the logo from their vertical extent and
    known height (``range_from_extent``);
 3. else none (``RANGE_NONE``, range and position NaN).
+
+**Cut-off blobs.** The camera sees 33.75 deg above and below its horizon (0.55 m up): a
+shirt's top (1.43 m on a 1.75 m person) leaves the picture nearer than about 1.3 m, and a
+cone's foot below about 0.8 m. The blob then ends at its strip's edge, the measured extent
+is short and the size estimate too long: at 0.7 m a shirt measured 1.7-2.2 m, and the
+laser's hits on the person, outside the gate around that, were dropped (the simulator's
+apartment runs, `docs/results/target_follower.md`). For a blob touching its strip's top or
+bottom row (``cut_off``) the estimate is an upper bound, and the laser's hits count from
+the camera out to the estimate plus the gate.
 
 Ranges are horizontal, from the camera for the estimate and from base_link's origin in the
 result; NaN or inf beams are ignored (the caller warns about them).
@@ -44,6 +55,7 @@ from .color_detector import Blob
 
 RANGE_NONE, RANGE_LASER, RANGE_SIZE = 0, 1, 2  # Detection.msg's range_source values
 CLUSTER_GAP_M = 0.15  # [m] hits farther apart along the ray belong to different objects
+CUT_OFF_PX = 1  # a blob's bounding box within this of its strip's top or bottom row is cut
 
 
 @dataclass
@@ -112,6 +124,15 @@ def _ray(cam: PanoramicCamera, u: float, v: float, strip: int):
     return float(b), float(e)
 
 
+def cut_off(cam: PanoramicCamera, blob: Blob) -> bool:
+    """The blob touches its strip's top or bottom row: part of the target is out of the
+    picture, so its size range is an upper bound (module doc)."""
+    sh = cam.strip_height_px
+    strip = int(min(cam.strips - 1, max(0, blob.v // sh)))
+    _, y, _, h = blob.bbox
+    return y <= strip * sh + CUT_OFF_PX - 1 or y + h >= (strip + 1) * sh - CUT_OFF_PX + 1
+
+
 def size_range(cam: PanoramicCamera, blob: Blob, shape: TargetShape) -> float:
     """Horizontal range from the camera [m] estimated from the blob's size; inf if none."""
     strip = int(min(cam.strips - 1, max(0, blob.v // cam.strip_height_px)))
@@ -124,9 +145,10 @@ def size_range(cam: PanoramicCamera, blob: Blob, shape: TargetShape) -> float:
 
 
 def laser_range(cam: PanoramicCamera, bearing_cam: float, estimate_m: float, scan: Scan,
-                radius_m: float, gate_m: float) -> Optional[float]:
+                radius_m: float, gate_m: float, upper_bound: bool = False) -> Optional[float]:
     """Horizontal range from the camera [m] of the laser hits on the target (see the
-    module doc), or None."""
+    module doc), or None. ``upper_bound``: the estimate is one (a cut-off blob), hits
+    nearer than it count however near."""
     if not math.isfinite(estimate_m):
         return None
     pts = scan.points_in_base()
@@ -137,7 +159,8 @@ def laser_range(cam: PanoramicCamera, bearing_cam: float, estimate_m: float, sca
     rel = pts - np.array([cam.mount_x_m, cam.mount_y_m])
     along = rel @ d
     perp = np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0])
-    hit = (along > 0) & (perp <= radius_m) & (np.abs(along - estimate_m) <= gate_m)
+    near_m = 0.0 if upper_bound else estimate_m - gate_m
+    hit = (along > 0) & (perp <= radius_m) & (along >= near_m) & (along <= estimate_m + gate_m)
     if not np.any(hit):
         return None
     d = np.sort(along[hit])
@@ -149,14 +172,16 @@ def laser_range(cam: PanoramicCamera, bearing_cam: float, estimate_m: float, sca
 def locate(cam: PanoramicCamera, blob: Blob, shape: TargetShape, scan: Optional[Scan] = None,
            gate_m: float = 0.5, gate_fraction: float = 0.3) -> Located:
     """The observation of ``blob``: laser range when a beam hits the target within
-    ``max(gate_m, gate_fraction x estimate)`` of the size estimate, else the estimate."""
+    ``max(gate_m, gate_fraction x estimate)`` of the size estimate (below it however far,
+    for a cut-off blob), else the estimate."""
     strip = int(min(cam.strips - 1, max(0, blob.v // cam.strip_height_px)))
     b_cam, elev = _ray(cam, blob.u, blob.v, strip)
     est = size_range(cam, blob, shape)
     r_cam, source = None, RANGE_NONE
     if scan is not None:
         r_cam = laser_range(cam, b_cam, est, scan, shape.radius_m,
-                            max(gate_m, gate_fraction * est) if math.isfinite(est) else 0.0)
+                            max(gate_m, gate_fraction * est) if math.isfinite(est) else 0.0,
+                            upper_bound=cut_off(cam, blob))
         source = RANGE_LASER if r_cam is not None else RANGE_NONE
     if r_cam is None and math.isfinite(est) and est > 0:
         r_cam, source = est, RANGE_SIZE
