@@ -185,3 +185,12 @@ def test_a_whole_shirt_is_not_cut_off():
     S.draw_person(img, CAM, -0.4, 2.0)
     (shirt,) = make_detector("shirt", strip_height_px=CAM.strip_height_px).detect(img)[:1]
     assert not cut_off(CAM, shirt)
+
+
+@pytest.mark.parametrize("y, cut", [(0, True), (1, False), (373, False), (374, True),
+                                    (384, True), (385, False), (757, False), (758, True)])
+def test_cut_off_is_touching_an_edge_row_of_the_blobs_strip(y, cut):
+    """10-row boxes in the double panorama (two strips of 384 rows): cut off when the box's
+    first or last row is its strip's first or last."""
+    from target_follower.color_detector import Blob
+    assert cut_off(CAM, Blob("shirt", 5.0, y + 5.0, (0, y, 10, 10), 100.0, 1.0)) == cut

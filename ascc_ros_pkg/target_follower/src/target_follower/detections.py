@@ -23,7 +23,7 @@ strip of its centroid, and its top and bottom rows are read in that strip). The 
 **Cut-off blobs.** The camera sees 33.75 deg above and below its horizon (0.55 m up): a
 shirt's top (1.43 m on a 1.75 m person) leaves the picture nearer than about 1.3 m, and a
 cone's foot below about 0.8 m. The blob then ends at its strip's edge, the measured extent
-is short and the size estimate too long: at 0.7 m a shirt measured 1.7-2.2 m, and the
+is short and the size estimate too long: at 0.6-0.8 m a shirt measured 1.6-2.2 m, and the
 laser's hits on the person, outside the gate around that, were dropped (the simulator's
 apartment runs, `docs/results/target_follower.md`). For a blob touching its strip's top or
 bottom row (``cut_off``) the estimate is an upper bound, and the laser's hits count from
@@ -55,7 +55,8 @@ from .color_detector import Blob
 
 RANGE_NONE, RANGE_LASER, RANGE_SIZE = 0, 1, 2  # Detection.msg's range_source values
 CLUSTER_GAP_M = 0.15  # [m] hits farther apart along the ray belong to different objects
-CUT_OFF_PX = 1  # a blob's bounding box within this of its strip's top or bottom row is cut
+CUT_OFF_PX = 1  # [px] a blob whose box reaches this close to its strip's top or bottom
+# edge is cut off (1: it touches the edge row)
 
 
 @dataclass
@@ -129,8 +130,9 @@ def cut_off(cam: PanoramicCamera, blob: Blob) -> bool:
     picture, so its size range is an upper bound (module doc)."""
     sh = cam.strip_height_px
     strip = int(min(cam.strips - 1, max(0, blob.v // sh)))
-    _, y, _, h = blob.bbox
-    return y <= strip * sh + CUT_OFF_PX - 1 or y + h >= (strip + 1) * sh - CUT_OFF_PX + 1
+    top, bottom = strip * sh, (strip + 1) * sh  # the strip's rows: [top, bottom)
+    _, y, _, h = blob.bbox  # the box's rows: [y, y + h)
+    return y < top + CUT_OFF_PX or y + h > bottom - CUT_OFF_PX
 
 
 def size_range(cam: PanoramicCamera, blob: Blob, shape: TargetShape) -> float:
