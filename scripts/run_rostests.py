@@ -16,7 +16,8 @@ log folder), and its verdict is read from the JUnit XML that rostest and rosunit
 Prints a line per file, then `rostest: N files, C cases passed, F failed[, S skipped]`;
 exits 1 if anything failed (also when the selection is empty), 0 otherwise.
 ``--summary-file`` writes the counts, the failed files and each failure's reason as JSON
-for scripts/run_tests.sh.
+for scripts/run_tests.sh. Without ``--results-dir`` the XML and logs go to a new
+temporary folder, removed when every file passed and named at the end otherwise.
 
 ``--jobs 1`` (the default) runs the files one after another, their output live. With
 ``--jobs 2`` a file may run beside another, by what it says of itself in a comment:
@@ -33,6 +34,7 @@ import argparse
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -239,7 +241,8 @@ def main(argv=None):
     ap.add_argument("--timeout-s", type=float, default=900.0,
                     help="kill a file's rostest after this many seconds (default 900)")
     ap.add_argument("--results-dir", default=None,
-                    help="where rostest writes XML and logs (default: a new temp folder)")
+                    help="where rostest writes XML and logs (default: a new temp folder, "
+                         "removed when every file passed)")
     ap.add_argument("--summary-file", default=None, help="write the counts here as JSON")
     ap.add_argument("--jobs", type=int, default=1,
                     help="files at a time (2: light files beside the others; see above)")
@@ -293,7 +296,13 @@ def main(argv=None):
     if args.summary_file:
         with open(args.summary_file, "w") as f:
             json.dump(totals, f)
-    return 0 if tests and totals["files_failed"] == 0 else 1
+    passed = bool(tests) and totals["files_failed"] == 0
+    if not args.results_dir:
+        if passed:  # a folder of its own that nobody needs: not left in the temp dir
+            shutil.rmtree(results_root, ignore_errors=True)
+        else:
+            print("results and logs kept in %s" % results_root)
+    return 0 if passed else 1
 
 
 if __name__ == "__main__":

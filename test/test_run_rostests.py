@@ -172,6 +172,21 @@ def test_a_passing_selection_passes(probe, tmp_path):
     assert (counts["files"], counts["cases_passed"], counts["cases_failed"]) == (1, 1, 0)
 
 
+@pytest.mark.parametrize("selection, kept", [("passing", False), ("failing", True)])
+def test_its_own_results_folder_is_kept_only_when_something_failed(probe, tmp_path,
+                                                                  selection, kept):
+    test_dir, env = probe
+    env = dict(env, TMPDIR=str(tmp_path))
+    proc = subprocess.run([sys.executable, RUNNER, "--filter", selection, str(test_dir)],
+                          env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          text=True, timeout=300)
+    assert proc.returncode == (1 if kept else 0), proc.stdout
+    left = list(tmp_path.glob("ascc_rostest_*"))
+    assert len(left) == (1 if kept else 0), left
+    if kept:
+        assert "results and logs kept in %s" % left[0] in proc.stdout
+
+
 def test_an_empty_selection_fails(probe, tmp_path):
     rc, out, counts = run(probe, tmp_path, "--filter", "matches_no_file")
     assert rc == 1, out
