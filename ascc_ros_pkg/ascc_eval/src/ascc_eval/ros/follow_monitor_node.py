@@ -27,7 +27,7 @@ from std_msgs.msg import String
 
 from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
-from ascc_common.pose2d import yaw_of
+from ascc_common.pose2d import relative, yaw_of
 from ascc_eval.follow_eval import FollowMonitorParams, FollowRecord, FollowSample
 from ascc_sim.msg import SimObjectArray
 from irobot_create_2_1.msg import SensorPacket
@@ -106,9 +106,7 @@ class FollowMonitor:
                 return
             # odom -> base_link with the newest odometry (at 0.3 m/s, a 50 ms old pose is
             # 1.5 cm off)
-            dx, dy = x - odom[1], y - odom[2]
-            c, s = math.cos(odom[3]), math.sin(odom[3])
-            x, y = c * dx + s * dy, -s * dx + c * dy
+            x, y, _ = relative(odom[1:], (x, y, 0.0))
         self.followed = (rospy.get_time(), math.hypot(x, y), math.atan2(y, x), "")
 
     def _fresh(self, view, t):
