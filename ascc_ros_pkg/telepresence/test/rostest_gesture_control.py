@@ -109,6 +109,10 @@ class GestureControlTest(unittest.TestCase):
         self.send("come_close")
         self.wait_state("coming", 5.0)
         self.wait_state("idle", 30.0)
+        # the node sends the zero, then the state; they come on two connections, so the
+        # state can arrive first (a CI run read 0.05 as the last command)
+        wait_for(lambda: self.cmds.count > n and self.cmds.all[-1].linear.x == 0.0, 2.0,
+                 "the zero command after the approach")
         speeds = [c.linear.x for c in self.cmds.all[n:]]
         self.assertEqual(speeds[-1], 0.0)  # one zero at the end
         self.assertTrue(all(0.0 < v <= P.approach_speed_mps + 1e-9 for v in speeds[:-1]))
