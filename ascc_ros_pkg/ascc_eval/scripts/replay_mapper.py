@@ -26,6 +26,13 @@ With ``--online-every-s S`` it also prints the recorded run's own mapper (``map 
 the bag, composed with the odometry) against the truth every S seconds: position and heading
 error beside the odometry's alone, to see where and when an online map went wrong.
 
+With ``--track-every-s S`` each replay prints its own estimate against the truth every S
+seconds of the run (at the first filter update after each mark): the best particle's position
+and heading error and the range of all particles' heading errors. Two groups of particles
+whose headings differ by a few hundredths of a radian, each consistent with its own map, are
+how a corridor map breaks: the resampling keeps one of them by chance
+(docs/results/ascc_navigation.md, "How a corridor map breaks").
+
 The online mapper sees the same data but has to keep up with the clock: it drops scans whose
 TF arrives more than ``tf_wait_s`` late. ``--drop-late-s`` emulates that from the bag's receive
 times. So a map that is bad online and good in the replay points at the load, not at the
@@ -34,6 +41,7 @@ filter.
     python3 scripts/replay_mapper.py RUN.bag [--seeds 0 1] [--set lskip=0] [--drop-late-s 0.5]
         [--out DIR]  (writes the replayed maps as map_server YAML + PGM)
         [--online-every-s 40] [--start-turn] [--seeds]  (no --seeds value: no replay)
+        [--track-every-s 10]  (the replay's own error and its particles' heading spread)
 """
 import argparse
 import math
@@ -274,10 +282,26 @@ class RunBag:
         return np.abs(diff - slow), np.diff(o[:, 0], append=o[-1, 0])
 
 
-def replay(run, params, seed, drop_late_s, late):
-    """One replay with filter ``seed``; ``late`` = run.tf_lateness() (used if drop_late_s > 0)."""
+def track_row(t, true, best, particles):
+    """One row of the replay's track at ``t`` [s]: the true pose (x, y, theta) and the best
+    particle's pose ``best`` in the map frame, all particles' poses ``particles`` (N, 3).
+    Returns (t, true x, y, theta, best's position error [m], its heading error [rad], the
+    particles' smallest and largest heading error [rad])."""
+    head = np.asarray(wrap_angle(np.asarray(particles)[:, 2] - true[2]))
+    return (t, float(true[0]), float(true[1]), float(true[2]),
+            math.hypot(best[0] - true[0], best[1] - true[1]),
+            float(wrap_angle(best[2] - true[2])), float(head.min()), float(head.max()))
+
+
+def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=None):
+    """One replay with filter ``seed``; ``late`` = run.tf_lateness() (used if drop_late_s > 0).
+    With ``track_every_s`` > 0, ``on_track(row)`` gets a ``track_row`` at the first filter
+    update after every ``track_every_s`` [s] of the run (from the first scan)."""
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     world_from_map = None
+    map_from_world = None
+    first_stamp = None
+    next_track = 0.0
     errors = []
     cpu = 0.0
     updates = 0
@@ -290,6 +314,8 @@ def replay(run, params, seed, drop_late_s, late):
         if out.status in (M.STARTED, M.RESET) and run.truth is not None:
             # the map frame is the odometry frame at the first scan
             world_from_map = run.world_from_map(stamp, odom)
+            map_from_world = inverse(world_from_map)
+            first_stamp = stamp if first_stamp is None else first_stamp
         if out.status == M.UPDATED:
             updates += 1
             if world_from_map is not None:
@@ -297,6 +323,11 @@ def replay(run, params, seed, drop_late_s, late):
                 true = run.truth_at(stamp)
                 errors.append((math.hypot(est[0] - true[0], est[1] - true[1]),
                                abs(math.degrees(float(wrap_angle(est[2] - true[2]))))))
+                if track_every_s > 0 and stamp - first_stamp >= next_track:
+                    next_track += track_every_s * (
+                        1 + math.floor((stamp - first_stamp - next_track) / track_every_s))
+                    on_track(track_row(stamp - first_stamp, compose(map_from_world, true),
+                                       mapper.robot_pose(), mapper.slam.poses))
     grid, info = mapper.occupancy()
     result = {"seed": seed, "updates": updates, "dropped": dropped,
               "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info}
@@ -336,6 +367,9 @@ def main():
     ap.add_argument("--online-every-s", type=float, default=0.0,
                     help="print the recorded mapper's pose error against the truth every "
                          "this many seconds of the run; 0: off")
+    ap.add_argument("--track-every-s", type=float, default=0.0,
+                    help="print each replay's estimate against the truth every this many "
+                         "seconds of the run, with its particles' heading spread; 0: off")
     ap.add_argument("--start-turn", action="store_true",
                     help="print how the recorded mapper went through the run's first turn "
                          "on the spot: filter updates per radian and its error after it")
@@ -378,13 +412,29 @@ def main():
                   "each); the recorded estimate 1 s after it: (%+.2f, %+.2f) m off the truth"
                   % (turn["start_s"], turn["turned_rad"], turn["duration_s"], turn["updates"],
                      turn["rad_per_update"], *turn["error_after"]))
-    if not args.seeds:
-        return
-    print("%4s %7s %7s %6s %8s %8s %8s %8s %8s %10s" % (
+    if args.seeds:
+        replay_seeds(run, params, args, late)
+
+
+def replay_seeds(run, params, args, late):
+    """Replay ``run`` once per filter seed in ``args.seeds``; print each one's summary row
+    (and its track with ``args.track_every_s``), write its map to ``args.out``."""
+    header = "%4s %7s %7s %6s %8s %8s %8s %8s %8s %10s" % (
         "seed", "updates", "dropped", "ms", "max_err", "mean_err", "end_err", "max_head",
-        "accuracy", "known_free"))
+        "accuracy", "known_free")
+    if args.track_every_s <= 0:
+        print(header)
     for seed in args.seeds:
-        r = replay(run, params, seed, args.drop_late_s, late)
+        if args.track_every_s > 0:
+            print("replay, filter seed %d, against the truth (map frame; particles: the range "
+                  "of their heading errors [rad]):" % seed)
+            print("%7s %19s %18s %16s" % ("t [s]", "true x, y [m], th", "best particle err",
+                                          "particles"))
+        r = replay(run, params, seed, args.drop_late_s, late, args.track_every_s,
+                   lambda row: print("%7.0f %7.1f %6.1f %5.2f %9.2fm %7.3f %7.3f ..%6.3f"
+                                     % row, flush=True))
+        if args.track_every_s > 0:
+            print(header)
         print("%4d %7d %7d %6.1f %7.2fm %7.2fm %7.2fm %7.1fd %7.2f%% %9.2f%%" % (
             seed, r["updates"], r["dropped"], r["ms"], r.get("max_err", math.nan),
             r.get("mean_err", math.nan), r.get("end_err", math.nan),

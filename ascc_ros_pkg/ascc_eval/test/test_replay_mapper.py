@@ -148,3 +148,36 @@ def test_start_turn_counts_the_updates_in_the_first_turn_and_the_error_after_it(
 
 def test_start_turn_is_none_without_a_turn(bag_path):
     assert replay_mapper.RunBag(bag_path).start_turn() is None  # drives straight
+
+
+def test_track_row_gives_the_best_particles_error_and_the_particles_heading_range():
+    true = (1.0, 2.0, 3.1)
+    best = (1.3, 2.4, -3.1)  # across +-pi: 0.083 rad to the left of the truth
+    particles = [best, (1.0, 2.0, 3.05), (1.1, 2.0, 3.0)]
+    row = replay_mapper.track_row(12.5, true, best, particles)
+    assert row[:4] == (12.5, 1.0, 2.0, 3.1)
+    assert row[4] == pytest.approx(0.5)
+    assert row[5] == pytest.approx(2 * math.pi - 6.2)
+    assert row[6] == pytest.approx(-0.1)
+    assert row[7] == pytest.approx(2 * math.pi - 6.2)
+
+
+def test_replay_tracks_its_estimate_every_period(bag_path):
+    """The replay of the synthetic run (drives +x at 1 m/s for 10 s; a filter update every
+    0.25 m) reports at the first update after each second, with the truth in the map frame
+    (the odometry frame at the first scan)."""
+    import bench_mapper
+
+    run = replay_mapper.RunBag(bag_path)
+    rows = []
+    replay_mapper.replay(run, bench_mapper.load_params(bench_mapper.CONFIG), 0, 0.0,
+                         run.tf_lateness(), track_every_s=1.0, on_track=rows.append)
+    assert len(rows) >= 8
+    first = (SCALE * 0.1, DRIFT * 0.1)  # the odometry at the first scan
+    for k, (t, x, y, th, err, head, lo, hi) in enumerate(rows):
+        assert k * 1.0 <= t < k * 1.0 + 0.5  # an update every 0.25 s of driving
+        assert x == pytest.approx(first[0] + t * math.cos(first[1]), abs=1e-6)
+        assert y == pytest.approx(t * math.sin(first[1]), abs=1e-6)
+        assert th == pytest.approx(first[1], abs=1e-9)
+        assert err >= 0.0
+        assert lo <= head <= hi
