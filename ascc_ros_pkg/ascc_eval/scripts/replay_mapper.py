@@ -323,10 +323,10 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
                 true = run.truth_at(stamp)
                 errors.append((math.hypot(est[0] - true[0], est[1] - true[1]),
                                abs(math.degrees(float(wrap_angle(est[2] - true[2]))))))
-                if track_every_s > 0 and stamp - first_stamp >= next_track:
-                    next_track += track_every_s * (
-                        1 + math.floor((stamp - first_stamp - next_track) / track_every_s))
-                    on_track(track_row(stamp - first_stamp, compose(map_from_world, true),
+                elapsed = stamp - first_stamp
+                if track_every_s > 0 and elapsed >= next_track:
+                    next_track = track_every_s * (math.floor(elapsed / track_every_s) + 1)
+                    on_track(track_row(elapsed, compose(map_from_world, true),
                                        mapper.robot_pose(), mapper.slam.poses))
     grid, info = mapper.occupancy()
     result = {"seed": seed, "updates": updates, "dropped": dropped,
