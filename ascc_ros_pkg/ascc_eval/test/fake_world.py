@@ -140,9 +140,10 @@ class FakeWorld:
             self.tfb.sendTransform(t)
             self.pose_pub.publish(self._pose_msg(xy))
         except rospy.ROSException:
-            if not rospy.is_shutdown():
+            if not rospy.core.is_shutdown_requested():
                 raise
-            # the node is shutting down under this timer: its topics are closed
+            # the node is shutting down under this timer: rospy closes its topics in the
+            # pre-shutdown hooks, while rospy.is_shutdown() is still false
 
     def _publish_stats(self):
         self.stats["pose"] = list(self.pose)
