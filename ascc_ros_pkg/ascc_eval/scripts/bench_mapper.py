@@ -17,7 +17,8 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
     localisation: the rest of the gap is the pose error's); "ideal_sides_%" that map's
     sides (below), i.e. what the grid's cell model alone does to them;
   * "along" / "across": the largest pose error along / across the robot's true heading
-    (on the corridor: along / across the corridor);
+    (on the corridor: along / across the corridor); "heading_mrad": the median and 95th
+    percentile of the heading error at the filter updates [mrad];
   * "inc_mm": the error of the map's own trajectory (the best particle's poses at the
     updates, which its map was built from) in each translating update's forward motion,
     mean / std [mm], and the odometry's ("odom_inc_mm"): a systematic along-motion bias
@@ -54,7 +55,7 @@ sys.path.insert(0, os.path.join(NAV, "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.params import from_params, parameters  # noqa: E402
-from ascc_common.pose2d import compose, relative  # noqa: E402
+from ascc_common.pose2d import compose, relative, wrap_angle  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
 from ascc_navigation.grid import map_agreement  # noqa: E402
@@ -254,7 +255,7 @@ def run(world, params, seed, odom_kind, save=None):
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     spec = world.spec
     times, walls, errors, statuses = [], [], [], {}
-    along, across = [0.0], [0.0]
+    along, across, heading = [0.0], [0.0], [0.0]
     true_poses, scans, odom_poses = [], [], []  # of the updates (map at the true poses)
     k = 0
     for k in range(0, traj.shape[0], FEED_EVERY):
@@ -277,6 +278,7 @@ def run(world, params, seed, odom_kind, save=None):
             ch, sh = math.cos(traj[k, 2]), math.sin(traj[k, 2])
             along.append(abs(ch * ex + sh * ey))
             across.append(abs(-sh * ex + ch * ey))
+            heading.append(abs(float(wrap_angle(est[2] - traj[k, 2]))))
     est_grid, est_info = mapper.occupancy()
     acc = map_agreement(est_grid, est_info, world.truth, world.info)
     ideal = rebuild_counts(lambda: ParticleMaps(1, est_info), np.array(true_poses), scans)
@@ -301,6 +303,7 @@ def run(world, params, seed, odom_kind, save=None):
                             / np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1])))),
         "along": max(along), "across": max(across), "sides": sides, "corner": corner,
         "ideal_sides": ideal_sides,
+        "heading_mrad": (1e3 * float(np.median(heading)), 1e3 * float(np.percentile(heading, 95))),
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
         "ms_max": 1e3 * float(np.max(times)), "ms_wall": 1e3 * float(np.mean(walls)),
@@ -338,9 +341,9 @@ def main():
     columns = ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
                "free", "occ", "known", "end_err", "max_err", "along", "across", "odom", "map",
                "maps", "ideal", "cpu_s", "inc_mm", "odom_inc_mm", "sides_% corner_deg",
-               "odom_scale", "ideal_sides_%")
+               "odom_scale", "ideal_sides_%", "heading_mrad p50/p95")
     header = ("%-9s %4s %6s %7s %7s %7s %7s %8s %6s %6s %8s %7s %7s %6s %6s %7s %11s %6s %7s "
-              "%6s %11s %11s  %s  %s  %s" % columns)
+              "%6s %11s %11s  %s  %s  %s  %s" % columns)
     print(header)
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
@@ -350,7 +353,7 @@ def main():
             a = r["acc"]
             print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
                   "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "
-                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f  %s"
+                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f  %s  %.1f/%.1f"
                   % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
                      r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
                      100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
@@ -359,7 +362,8 @@ def main():
                      r["odom_inc"][0], r["odom_inc"][1],
                      " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"],
                      r["odom_scale"],
-                     " ".join("%+.2f" % v for v in r["ideal_sides"]) or "-"))
+                     " ".join("%+.2f" % v for v in r["ideal_sides"]) or "-",
+                     *r["heading_mrad"]))
             sys.stdout.flush()
 
 
