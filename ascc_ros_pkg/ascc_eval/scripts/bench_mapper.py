@@ -255,7 +255,7 @@ def run(world, params, seed, odom_kind, save=None):
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     spec = world.spec
     times, walls, errors, statuses = [], [], [], {}
-    along, across, heading = [0.0], [0.0], [0.0]
+    along, across, heading = [0.0], [0.0], []  # heading: one per update, no start value
     true_poses, scans, odom_poses = [], [], []  # of the updates (map at the true poses)
     k = 0
     for k in range(0, traj.shape[0], FEED_EVERY):
@@ -303,7 +303,8 @@ def run(world, params, seed, odom_kind, save=None):
                             / np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1])))),
         "along": max(along), "across": max(across), "sides": sides, "corner": corner,
         "ideal_sides": ideal_sides,
-        "heading_mrad": (1e3 * float(np.median(heading)), 1e3 * float(np.percentile(heading, 95))),
+        "heading_mrad": ((1e3 * float(np.median(heading)), 1e3 * float(np.percentile(heading, 95)))
+                         if heading else (float("nan"), float("nan"))),
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
         "ms_max": 1e3 * float(np.max(times)), "ms_wall": 1e3 * float(np.mean(walls)),
