@@ -303,8 +303,7 @@ def run(world, params, seed, odom_kind, save=None):
                             / np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1])))),
         "along": max(along), "across": max(across), "sides": sides, "corner": corner,
         "ideal_sides": ideal_sides,
-        "heading_mrad": ((1e3 * float(np.median(heading)), 1e3 * float(np.percentile(heading, 95)))
-                         if heading else (float("nan"), float("nan"))),
+        "heading_mrad": tuple(1e3 * np.percentile(heading, [50, 95])),
         "world": world.name, "updates": len(times), "statuses": statuses,
         "ms_mean": 1e3 * float(np.mean(times)), "ms_p95": 1e3 * float(np.percentile(times, 95)),
         "ms_max": 1e3 * float(np.max(times)), "ms_wall": 1e3 * float(np.mean(walls)),
