@@ -28,8 +28,8 @@ cells, origin kept on the lattice) whenever a scan reaches beyond it.
 
 Everything is vectorised over particles and beams: the free space of all particles is filled
 with one ``cv2.fillPoly`` call on a stack of windows, the likelihood fields of all particles
-come from one ``cv2.distanceTransform`` call, and scan matching scores all particles'
-candidate poses with four gathers (bilinear) per hill-climbing step. No ROS imports.
+come from one ``cv2.distanceTransform`` call, and the scan matcher's hill climb is compiled
+(``climb``: numba), one end point at a time. No ROS imports.
 """
 
 from __future__ import annotations
@@ -45,16 +45,14 @@ from scipy.ndimage import uniform_filter1d
 from ascc_common.grid import OCCUPIED, GridInfo
 from ascc_common.params import param
 from ascc_common.pose2d import compose, mean_yaw, wrap_angle
+from ascc_navigation.climb import hill_climb
 from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
 MIN_ALONG_STD_M = 1e-3  # detrend_along: less spread along the heading than this is none
-MAX_CLIMB_STEPS = 60  # safety cap on hill-climbing steps per update (all particles together)
-# Hill-climbing moves in the map frame: +-x, +-y (times lstep), +-theta (times astep).
-_MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
-                  dtype=float)
+MAX_CLIMB_STEPS = 60  # safety cap on hill-climbing steps per pose and update
 
 
 @dataclass
@@ -812,57 +810,14 @@ class RbpfSlam:
     def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray, prior: np.ndarray,
                     start: np.ndarray, particles: np.ndarray,
                     along: float = 0.0) -> Tuple[np.ndarray, np.ndarray]:
-        """gmapping-style greedy search, all given poses at once: try the six moves around the
-        current pose; take the best if it improves the objective, else halve that pose's
-        steps; stop a pose after ``iterations`` halvings. Pose i starts at start[i] in the map
-        of particle particles[i]. Objective: match score minus
-        sum_k prior[k] * (pose_k - start_k)^2 minus along * ((pose - start)_xy . h_i)^2,
-        h_i the unit vector of start[i]'s heading. Returns the poses and their match
-        scores."""
+        """gmapping-style greedy search (``climb``, compiled), pose i from start[i] in the
+        map of particle particles[i]: the six moves around the current pose, the best taken
+        if it improves the objective, else that pose's steps halved, ``iterations``
+        halvings. Objective: match score minus sum_k prior[k] * (pose_k - start_k)^2 minus
+        along * ((pose - start)_xy . h_i)^2, h_i the unit vector of start[i]'s heading.
+        Returns the poses and their match scores."""
         cfg = self.cfg
-        n = start.shape[0]
-        pose = start.copy()
-        heading = (np.stack([np.cos(start[:, 2]), np.sin(start[:, 2])], axis=-1)
-                   if along else None)
-        everyone = np.arange(n)
-        score = fields.match_score(fields.distances(pose[:, None, :], particles, pts),
-                                   cfg.sigma)[:, 0]
-        best = score.copy()
-        step = np.ones(n)
-        halvings = np.zeros(n, dtype=int)
-        unit = np.array([cfg.lstep, cfg.lstep, cfg.astep])
-        active = everyone
-        for _ in range(MAX_CLIMB_STEPS):
-            if active.size == 0:
-                break
-            cand = pose[active, None, :] + _MOVES[None, :, :] * (step[active, None, None] * unit)
-            sc = self._candidate_scores(fields, cand, particles[active], pts)
-            off = cand - start[active, None, :]
-            obj = sc - (off ** 2 * prior).sum(axis=-1)
-            if along:
-                obj -= along * np.einsum("mkj,mj->mk", off[..., :2], heading[active]) ** 2
-            j = np.argmax(obj, axis=1)
-            rows = np.arange(active.size)
-            better = obj[rows, j] > best[active]
-            moved = active[better]
-            pose[moved] = cand[better, j[better]]
-            best[moved] = obj[rows, j][better]
-            score[moved] = sc[rows, j][better]
-            stuck = active[~better]
-            step[stuck] *= 0.5
-            halvings[stuck] += 1
-            active = active[halvings[active] < cfg.iterations]
+        pose, score = hill_climb(fields, pts, prior, start, particles, cfg.lstep, cfg.astep,
+                                 cfg.iterations, cfg.sigma, MAX_CLIMB_STEPS, along)
         pose[:, 2] = wrap_angle(pose[:, 2])
         return pose, score
-
-    def _candidate_scores(self, fields: _LikelihoodFields, cand: np.ndarray,
-                          particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        """Scores of the six moves (n, 6, 3): the four translations share one rotation of
-        the end points, so only three rotations are computed."""
-        ru, rv = fields.rotated(cand[:, 3:, 2], pts)  # theta (as +-x/+-y), +a, -a: (n, 3, M)
-        xc, yc = fields.cells(cand[..., 0], cand[..., 1])
-        trans = fields.interpolate(xc[:, :4] + ru[:, :1], yc[:, :4] + rv[:, :1], particle)
-        turns = fields.interpolate(xc[:, 4:] + ru[:, 1:], yc[:, 4:] + rv[:, 1:], particle)
-        sigma = self.cfg.sigma
-        return np.concatenate([fields.match_score(trans, sigma),
-                               fields.match_score(turns, sigma)], axis=1)

@@ -29,6 +29,7 @@ from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import mapper as M
+from ascc_navigation.climb import warm_up
 from ascc_navigation.laser import LaserMount
 
 WARN_PERIOD_S = 5.0  # each kind of warning at most once per this period (wall clock)
@@ -71,6 +72,8 @@ class SlamMapperNode:
         self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
         self.entropy_pub = rospy.Publisher("~entropy", Float64, queue_size=5)
         self.service = rospy.Service("dynamic_map", GetMap, self.on_get_map)
+        # the compiled scan matcher loaded (or compiled) before the first scan arrives
+        rospy.loginfo("slam_mapper: compiled scan matcher ready (%.2f s of CPU)" % warm_up())
         # numpy_msg: the ranges arrive as one array, not a tuple of Python floats
         rospy.Subscriber("scan", numpy_msg(LaserScan), self.on_scan, queue_size=1)
         # PacedTimer, not rospy.Timer: under simulated time that wakes on every /clock

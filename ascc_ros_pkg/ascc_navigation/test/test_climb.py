@@ -1,0 +1,143 @@
+"""The compiled hill climb (climb.py) against the numpy lookups it replaces: the same scores
+and, step by step, the same search as rbpf's numpy search before it."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ascc_common.grid import OCCUPIED
+from ascc_navigation import climb as C
+from ascc_navigation import rbpf as R
+from ascc_navigation import synthetic as S
+from ascc_navigation.laser import LaserMount, prepare_scan
+
+SPEC = S.LaserSpec()
+MOUNT = LaserMount(0.05, 0.0, 0.0)
+WORLD = S.office_world()
+
+
+def _scan(pose):
+    truth, info = WORLD
+    ranges = S.simulate_scan(truth == OCCUPIED, info, pose, MOUNT, SPEC,
+                             np.random.default_rng(0), noise_std=0.01)
+    return prepare_scan(ranges, SPEC.angle_min, SPEC.angle_increment, SPEC.range_min,
+                        SPEC.range_max, MOUNT, 3.9, free_pullback=0.05, hit_offset=0.025)
+
+
+@pytest.fixture(scope="module")
+def filled():
+    """A three-particle filter whose maps differ (each registered the scans a few cm and
+    a degree apart; particle 0 at the true poses), its likelihood fields around the next
+    pose, and the end points of the scan there that an update would match."""
+    info = WORLD[1]
+    cfg = R.RbpfConfig(particles=3, xmin=0, ymin=0, xmax=info.width * info.resolution,
+                       ymax=info.height * info.resolution)
+    slam = R.RbpfSlam(cfg, seed=0)
+    path = [np.array([4.0, 1.8, 0.1]), np.array([4.4, 1.9, 0.15]), np.array([4.8, 2.0, 0.3])]
+    slam.start(path[0], _scan(path[0]))
+    skew = np.array([[0.0, 0.0, 0.0], [0.04, -0.03, 0.02], [-0.05, 0.02, -0.015]])
+    for p in path[1:]:
+        slam.poses[:] = p + skew
+        slam._register(_scan(p))
+    pose = np.array([5.1, 2.05, 0.35])
+    slam.poses[:] = pose
+    scan = _scan(pose)
+    # the end points an update would match: those within what the map can hold
+    moved = math.hypot(*(pose - path[-1])[:2])
+    pts = scan.match[scan.match_range <= scan.max_urange - moved - cfg.new_area_margin]
+    return cfg, slam._fields(pts), pts, pose
+
+
+def _starts(pose, n, seed):
+    rng = np.random.default_rng(seed)
+    return pose + rng.uniform([-0.1, -0.1, -0.06], [0.1, 0.1, 0.06], (n, 3))
+
+
+def test_compiled_score_is_the_numpy_lookups_score(filled):
+    cfg, fields, pts, pose = filled
+    starts = _starts(pose, 12, 1)
+    particles = np.arange(12) % 3
+    want = fields.match_score(fields.distances(starts[:, None, :], particles, pts),
+                              cfg.sigma)[:, 0]
+    g = C.geometry(fields, cfg.sigma)
+    mx, my = C.end_points(pts, fields.res)
+    got = np.array([C._score(g, int(p) * fields.band * fields.w, x, y, t, mx, my)
+                    for (x, y, t), p in zip(starts, particles)])
+    assert want.min() > 0.2 * pts.shape[0]  # the poses are near: most beams count
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    # a pose far outside the window clamps to its border, as numpy's clip
+    far = np.array([[pose[0] + 30.0, pose[1] - 20.0, 1.0]])
+    want_far = fields.match_score(fields.distances(far[:, None, :], np.array([2]), pts),
+                                  cfg.sigma)[0, 0]
+    got_far = C._score(g, 2 * fields.band * fields.w, *far[0], mx, my)
+    np.testing.assert_allclose(got_far, want_far, rtol=1e-12)
+
+
+def test_six_moves_in_one_pass_score_as_six_poses(filled):
+    cfg, fields, pts, pose = filled
+    g = C.geometry(fields, cfg.sigma)
+    mx, my = C.end_points(pts, fields.res)
+    base = fields.band * fields.w  # particle 1
+    dl, da = 0.025, 0.0125
+    out = np.empty(6)
+    C._six_scores(g, base, pose[0], pose[1], pose[2], dl, da, mx, my, out)
+    for m in range(6):
+        q = pose + C.MOVES[m] * np.array([dl, dl, da])
+        assert out[m] == C._score(g, base, q[0], q[1], q[2], mx, my)
+    assert len(set(out.tolist())) == 6
+
+
+def _numpy_climb(fields, pts, prior, start, particles, cfg, along):
+    """rbpf's search before the kernel, all poses at once on the numpy lookups."""
+    n = start.shape[0]
+    pose = start.copy()
+    score = fields.match_score(fields.distances(pose[:, None, :], particles, pts),
+                               cfg.sigma)[:, 0]
+    best = score.copy()
+    step = np.ones(n)
+    halvings = np.zeros(n, dtype=int)
+    unit = np.array([cfg.lstep, cfg.lstep, cfg.astep])
+    heading = np.stack([np.cos(start[:, 2]), np.sin(start[:, 2])], axis=-1)
+    for _ in range(R.MAX_CLIMB_STEPS):
+        active = np.nonzero(halvings < cfg.iterations)[0]
+        if active.size == 0:
+            break
+        cand = pose[active, None, :] + C.MOVES[None] * (step[active, None, None] * unit)
+        sc = fields.match_score(fields.distances(cand, particles[active], pts), cfg.sigma)
+        off = cand - start[active, None, :]
+        obj = sc - (off ** 2 * prior).sum(axis=-1)
+        if along:
+            obj -= along * np.einsum("mkj,mj->mk", off[..., :2], heading[active]) ** 2
+        j = np.argmax(obj, axis=1)
+        rows = np.arange(active.size)
+        better = obj[rows, j] > best[active]
+        moved = active[better]
+        pose[moved] = cand[better, j[better]]
+        best[moved] = obj[rows, j][better]
+        score[moved] = sc[rows, j][better]
+        stuck = active[~better]
+        step[stuck] *= 0.5
+        halvings[stuck] += 1
+    return pose, score
+
+
+@pytest.mark.parametrize("prior, along", [((0.0, 0.0, 0.0), 0.0), ((400.0, 400.0, 900.0), 0.0),
+                                          ((100.0, 100.0, 900.0), 2000.0)])
+def test_compiled_climb_takes_the_numpy_searchs_steps(filled, prior, along):
+    cfg, fields, pts, pose = filled
+    starts = _starts(pose, 15, 2)
+    particles = np.arange(15) % 3
+    prior = np.array(prior)
+    want_pose, want_score = _numpy_climb(fields, pts, prior, starts, particles, cfg, along)
+    got_pose, got_score = C.hill_climb(fields, pts, prior, starts, particles, cfg.lstep,
+                                       cfg.astep, cfg.iterations, cfg.sigma,
+                                       R.MAX_CLIMB_STEPS, along)
+    moved = np.abs(want_pose - starts).max(axis=1)
+    assert (moved > 0.02).sum() >= 10  # the searches went somewhere
+    np.testing.assert_allclose(got_pose, want_pose, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got_score, want_score, rtol=1e-12)
+
+
+def test_warm_up_runs_the_kernels():
+    assert C.warm_up() >= 0.0
