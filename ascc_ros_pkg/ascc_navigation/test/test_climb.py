@@ -139,5 +139,20 @@ def test_compiled_climb_takes_the_numpy_searchs_steps(filled, prior, along):
     np.testing.assert_allclose(got_score, want_score, rtol=1e-12)
 
 
+def test_a_pose_that_is_not_a_number_stays_inside_the_fields(filled):
+    """numba does not check indices: a NaN pose (or end point) must not read outside the
+    patch image. Its end points clamp to the window's corner cell, like far-off ones."""
+    cfg, fields, pts, pose = filled
+    g = C.geometry(fields, cfg.sigma)
+    mx, my = C.end_points(pts, fields.res)
+    corner = C._score(g, 0, fields.origin_x - 50.0, fields.origin_y - 50.0, 0.0, mx, my)
+    assert C._score(g, 0, math.nan, pose[1], pose[2], mx, my) >= 0.0
+    assert C._score(g, 0, math.nan, math.nan, 0.0, mx, my) == corner
+    got, score = C.hill_climb(fields, pts, np.zeros(3), np.array([[math.nan, 1.0, 0.0]]),
+                              np.array([2]), cfg.lstep, cfg.astep, cfg.iterations, cfg.sigma,
+                              R.MAX_CLIMB_STEPS)
+    assert np.isnan(got[0, 0]) and np.isfinite(score[0])
+
+
 def test_warm_up_runs_the_kernels():
     assert C.warm_up() >= 0.0

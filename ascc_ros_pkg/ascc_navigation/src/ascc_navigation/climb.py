@@ -37,9 +37,17 @@ MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0
 @njit(cache=True, nogil=True)
 def _distance(coef, base, w, u, v, max_u, max_v):
     """Bilinear distance at window cell coordinates u, v (float32, clamped to the window)
-    in the patch image ``coef`` (rows of ``w`` cells, the particle's band at ``base``)."""
-    u = min(max(u, np.float32(0.0)), max_u)
-    v = min(max(v, np.float32(0.0)), max_v)
+    in the patch image ``coef`` (rows of ``w`` cells, the particle's band at ``base``).
+    A NaN coordinate clamps to 0: numba does not check the index, and NaN would make one
+    outside the image."""
+    if not u >= np.float32(0.0):
+        u = np.float32(0.0)
+    elif u > max_u:
+        u = max_u
+    if not v >= np.float32(0.0):
+        v = np.float32(0.0)
+    elif v > max_v:
+        v = max_v
     iu = np.int32(u)
     iv = np.int32(v)
     fu = np.float64(u) - iu
