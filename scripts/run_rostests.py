@@ -13,7 +13,10 @@ log folder), and its verdict is read from the JUnit XML that rostest and rosunit
 * a non-zero rostest exit code, a file killed by ``--timeout-s``, or a file that ran no
   test case at all fails the file even when no case says so.
 
-Prints a line per file, then `rostest: N files, C cases passed, F failed[, S skipped]`;
+Prints a line per file (its cases, exit code, wall time and CPU time: user + system of
+rostest and what it reaped, i.e. its master, nodes and test scripts, on all cores; a file
+whose CPU is well under its wall time mostly waits), then `rostest: N files, C cases
+passed, F failed[, S skipped]`;
 exits 1 if anything failed (also when the selection is empty), 0 otherwise.
 ``--summary-file`` writes the counts, the failed files and each failure's reason as JSON
 for scripts/run_tests.sh. Without ``--results-dir`` the XML and logs go to a new
@@ -156,31 +159,49 @@ class Run:
             if out:
                 out.close()
         self.killed = None
+        self.seconds = self.cpu_s = None
         self.rc = None
 
     def poll(self):
         """The exit code once it has ended (killed at its deadline), else None."""
         if self.rc is None:
-            rc = self.proc.poll()
-            if rc is None and time.monotonic() > self.deadline:
+            ended = reap(self.proc)
+            if ended is None and time.monotonic() > self.deadline:
                 self.killed = time.monotonic() - self.start
                 os.killpg(self.proc.pid, signal.SIGINT)  # let roslaunch tear its nodes down
-                try:
-                    rc = self.proc.wait(timeout=20.0)
-                except subprocess.TimeoutExpired:
+                ended = reap(self.proc, 20.0)
+                if ended is None:
                     os.killpg(self.proc.pid, signal.SIGKILL)
-                    rc = self.proc.wait()
-            self.rc = rc
-            self.seconds = time.monotonic() - self.start
+                    ended = reap(self.proc, None)
+            if ended is not None:
+                self.rc, self.cpu_s = ended
+                self.seconds = time.monotonic() - self.start
         return self.rc
 
 
-def run_one(test_file, results_dir, timeout_s):
-    """Run one .test file, its output live; return (rc, seconds, killed_after_s or None)."""
-    r = Run(0, test_file, results_dir, timeout_s)
+def reap(proc, timeout_s=0.0):
+    """(exit code, CPU seconds) of ``proc`` once it has ended, else None after waiting up
+    to ``timeout_s`` (None: until it ends). The CPU time (user + system, ``os.wait4``) is
+    the process's and its reaped descendants': rostest's master, nodes and test scripts.
+    Sets ``proc.returncode``, as ``Popen.poll`` would."""
+    end = None if timeout_s is None else time.monotonic() + timeout_s
+    while True:
+        pid, status, usage = os.wait4(proc.pid, 0 if timeout_s is None else os.WNOHANG)
+        if pid:
+            rc = -os.WTERMSIG(status) if os.WIFSIGNALED(status) else os.WEXITSTATUS(status)
+            proc.returncode = rc
+            return rc, usage.ru_utime + usage.ru_stime
+        if time.monotonic() >= end:
+            return None
+        time.sleep(0.05)
+
+
+def run_one(index, test_file, results_dir, timeout_s):
+    """Run one .test file, its output live; return its ended ``Run``."""
+    r = Run(index, test_file, results_dir, timeout_s)
     while r.poll() is None:
         time.sleep(0.2)
-    return r.rc, r.seconds, r.killed
+    return r
 
 
 def may_start(lane, running):
@@ -194,13 +215,12 @@ def may_start(lane, running):
 
 
 def run_in_order(tests, results_dir_of, timeout_s):
-    """Each file after the other, output live; yields (index, file, results dir, rc,
-    seconds, killed after s or None) as each ends."""
+    """Each file after the other, output live; yields each ``Run`` as it ends (rc,
+    seconds, cpu_s, killed: seconds after which it was killed, or None)."""
     for i, test_file in enumerate(tests):
         print("\n==== rostest %s (%d/%d) ====" % (test_file, i + 1, len(tests)), flush=True)
         d = results_dir_of(i, test_file)
-        rc, seconds, killed = run_one(test_file, d, timeout_s)
-        yield i, test_file, d, rc, seconds, killed
+        yield run_one(i, test_file, d, timeout_s)
 
 
 def run_in_lanes(tests, results_dir_of, timeout_s, jobs):
@@ -231,7 +251,7 @@ def run_in_lanes(tests, results_dir_of, timeout_s, jobs):
                 r.test_file, r.index + 1, len(tests), r.lane), flush=True)
             with open(r.output, errors="replace") as f:
                 sys.stdout.write(f.read())
-            yield r.index, r.test_file, r.results_dir, r.rc, r.seconds, r.killed
+            yield r
 
 
 def main(argv=None):
@@ -267,13 +287,15 @@ def main(argv=None):
 
     runs = (run_in_order(tests, results_dir_of, args.timeout_s) if args.jobs <= 1
             else run_in_lanes(tests, results_dir_of, args.timeout_s, args.jobs))
-    for _i, test_file, results_dir, rc, seconds, killed in runs:
-        passed, failed, skipped, reasons = judge(read_results(results_dir), rc, killed)
+    for r in runs:
+        test_file, results_dir = r.test_file, r.results_dir
+        passed, failed, skipped, reasons = judge(read_results(results_dir), r.rc, r.killed)
         totals["cases_passed"] += passed
         totals["cases_failed"] += failed
         totals["cases_skipped"] += skipped
-        line = "rostest %s: %d cases passed, %d failed%s (rc=%d, %.0f s)" % (
-            test_file, passed, failed, ", %d skipped" % skipped if skipped else "", rc, seconds)
+        line = "rostest %s: %d cases passed, %d failed%s (rc=%d, %.0f s, CPU %.0f s)" % (
+            test_file, passed, failed, ", %d skipped" % skipped if skipped else "", r.rc,
+            r.seconds, r.cpu_s)
         if reasons:
             totals["files_failed"] += 1
             totals["failed_files"].append(test_file)

@@ -8,6 +8,7 @@ scripts/run_rostests.py on it with the real rostest. Needs the ROS environment
 import importlib.util
 import json
 import os
+import re
 import shutil
 import stat
 import subprocess
@@ -108,6 +109,8 @@ def test_every_way_of_failing_fails_the_run(probe, tmp_path):
                for f in counts["failures"]), counts["failures"]
     assert {os.path.basename(f.split(": ")[0]) for f in counts["failures"]} == failed
     assert "FAILED __main__.Probe.test_fails: 1 != 2" in out
+    assert re.search(r"passing\.test: 1 cases passed, 0 failed \(rc=0, \d+ s, CPU \d+ s\)",
+                     out), out
     assert "[crashing] did not generate test results" in out
     assert "does not exist or is not executable" in out
     assert "max time [3.0s]" in out
@@ -211,3 +214,24 @@ def test_rostests_run_on_loopback_unless_told_otherwise(tmp_path):
     assert env["ROS_LOG_DIR"] == str(tmp_path / "log")
     assert runner.rostest_env("r", {"ROS_IP": "10.1.2.3"})["ROS_IP"] == "10.1.2.3"
     assert "ROS_IP" not in runner.rostest_env("r", {"ROS_HOSTNAME": "robot"})
+
+
+BURN = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.6:\n    pass\n"
+
+
+def test_the_cpu_time_counts_what_the_run_reaped():
+    # a child that burns 0.6 s of CPU in a process of its own (as rostest's nodes), then
+    # exits 3; a sleeping one; one killed by a signal
+    runner = _runner_module()
+    parent = "import subprocess, sys\nsubprocess.run([sys.executable, '-c', %r])\nsys.exit(3)"
+    burner = subprocess.Popen([sys.executable, "-c", parent % BURN])
+    rc, cpu_s = runner.reap(burner, None)
+    assert rc == 3 and burner.returncode == 3
+    assert 0.6 <= cpu_s < 2.0, cpu_s
+    sleeper = subprocess.Popen(["sleep", "1"])
+    assert runner.reap(sleeper, 0.1) is None  # still running
+    rc, cpu_s = runner.reap(sleeper, 5.0)
+    assert rc == 0 and cpu_s < 0.3, cpu_s
+    killed = subprocess.Popen(["sleep", "30"])
+    killed.terminate()
+    assert runner.reap(killed, 5.0)[0] == -15
