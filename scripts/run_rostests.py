@@ -26,8 +26,11 @@ temporary folder, removed when every file passed and named at the end otherwise.
 ``--jobs 2`` a file may run beside another, by what it says of itself in a comment:
 ``run_rostests: light`` (little CPU: no simulator at speed, no camera rendering, no model
 training) may run beside any file but an exclusive one; ``run_rostests: exclusive`` runs
-alone, before the others; any other file is heavy: never beside another heavy one. Each
-file's output is then shown as a block when it ends.
+alone, before the others; any other file is heavy: never beside another heavy one. The
+heavy files go before the light ones: one after another they are the run's critical path
+(a light one taking the second slot as a heavy one ends would leave the next heavy one
+waiting); the light ones fill the other slot. Each file's output is shown as a block
+when it ends.
 
     run_rostests.py [--filter REGEX] [--jobs N] [--timeout-s S] [--summary-file F] PATH...
 
@@ -225,10 +228,12 @@ def run_in_order(tests, results_dir_of, timeout_s):
 
 def run_in_lanes(tests, results_dir_of, timeout_s, jobs):
     """Up to ``jobs`` files at a time as their lanes allow (``may_start``): exclusive
-    files first, alone, then the rest in their order; each file's output is shown when it
-    ends. Yields as ``run_in_order``."""
+    files first, alone, then the heavy ones, then the light ones (each group in its
+    order; a light one starts whenever a slot is free and no heavy one may take it); each
+    file's output is shown when it ends. Yields as ``run_in_order``."""
     lanes = [lane_of(t) for t in tests]  # read once, not on every poll
-    order = sorted(range(len(tests)), key=lambda k: lanes[k] != "exclusive")
+    rank = {"exclusive": 0, "heavy": 1, "light": 2}
+    order = sorted(range(len(tests)), key=lambda k: rank[lanes[k]])
     pending, running = list(order), []
     while pending or running:
         for k in list(pending):

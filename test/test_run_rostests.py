@@ -128,6 +128,13 @@ def test_two_at_a_time_gives_the_same_verdicts(probe, tmp_path):
     assert "max time [3.0s]" in out
     assert out.count("[rostest] started") == 5
     assert "passing.test (light;" in out and "failing.test (heavy;" in out
+    # the heavy files first (one after another they are the critical path), a light one
+    # beside each
+    started = [line.split()[2] for line in out.splitlines()
+               if line.startswith("[rostest] started")]
+    assert os.path.basename(started[0]) == "failing.test", started
+    heavy = [os.path.basename(f) for f in started if not f.endswith(LIGHT)]
+    assert heavy == ["failing.test", "missing.test", "overtime.test"], started
     assert out.rstrip().splitlines()[-1] == "rostest: 5 files, 2 cases passed, 4 failed"
 
 
