@@ -1,5 +1,6 @@
-"""The compiled hill climb (climb.py) against the numpy lookups it replaces: the same scores
-and, step by step, the same search as rbpf's numpy search before it."""
+"""The compiled kernels (climb.py) against the numpy code they replace: the hill climb's
+scores and, step by step, the same search as rbpf's numpy search before it; the distance
+transform's input image."""
 
 import math
 
@@ -152,6 +153,25 @@ def test_a_pose_that_is_not_a_number_stays_inside_the_fields(filled):
                               np.array([2]), cfg.lstep, cfg.astep, cfg.iterations, cfg.sigma,
                               R.MAX_CLIMB_STEPS)
     assert np.isnan(got[0, 0]) and np.isfinite(score[0])
+
+
+@pytest.mark.parametrize("window", [(3, 5, 40, 29), (0, 0, 50, 30), (49, 29, 50, 30)])
+def test_field_image_is_the_table_of_each_cells_counts(window):
+    """As numpy had it: table[visits << 8 | hits] over the window, 255 in the pad rows."""
+    rng = np.random.default_rng(4)
+    visits = rng.integers(0, 256, (3, 30, 50), dtype=np.uint8)
+    hits = rng.integers(0, 256, (3, 30, 50), dtype=np.uint8)
+    table = R._field_table(0.25)
+    x0, y0, x1, y1 = window
+    band = y1 - y0 + 4
+    key = visits[:, y0:y1, x0:x1].astype(np.uint16) << 8
+    key |= hits[:, y0:y1, x0:x1]
+    want = np.full((3, band, x1 - x0), 255, dtype=np.uint8)
+    want[:, :y1 - y0] = table[key]
+    got = C.field_image(visits, hits, window, band, table)
+    assert got.dtype == np.uint8 and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+    assert (want[:, :y1 - y0] == 0).any() and (want[:, :y1 - y0] == 255).any()
 
 
 def test_warm_up_runs_the_kernels():

@@ -460,7 +460,7 @@ def test_likelihood_lookup_is_bilinear_on_each_particles_field():
     assert fields.h >= 20 and fields.w >= 20
     rng = np.random.default_rng(3)
     images = [rng.random((fields.band, fields.w), dtype=np.float32) for _ in range(2)]
-    fields.coef = R._bilinear_coefficients(np.concatenate(images).reshape(-1), fields.w)
+    fields.dist = np.concatenate(images).reshape(-1)
     u = rng.uniform(-3.0, fields.w + 3.0, (2, 3, 50)).astype(np.float32)
     v = rng.uniform(-3.0, fields.h + 3.0, (2, 3, 50)).astype(np.float32)
     got = fields.interpolate(u.copy(), v.copy(), np.array([1, 0]))

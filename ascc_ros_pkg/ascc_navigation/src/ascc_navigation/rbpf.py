@@ -45,7 +45,7 @@ from scipy.ndimage import uniform_filter1d
 from ascc_common.grid import OCCUPIED, GridInfo
 from ascc_common.params import param
 from ascc_common.pose2d import compose, mean_yaw, wrap_angle
-from ascc_navigation.climb import hill_climb
+from ascc_navigation.climb import field_image, hill_climb
 from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
 
@@ -488,27 +488,10 @@ def _field_table(occ_thresh: float) -> np.ndarray:
     return np.where(count_table(occ_thresh) == OCCUPIED, 0, 255).astype(np.uint8)
 
 
-def _bilinear_coefficients(dist: np.ndarray, w: int) -> np.ndarray:
-    """Per cell k of the flat image ``dist`` (rows of ``w``): the bilinear patch with corner
-    k, d(k) + fu b + fv c + fu fv e over the cell, as (d, b, c, e) float32 packed into one
-    complex128, so an interpolation gathers one 16-byte item instead of four scattered
-    floats. Cells in the last row or column borrow zeros beyond the image; they are never
-    the corner of a lookup (``_LikelihoodFields._corners`` clamps below them)."""
-    n = dist.size
-    ext = np.zeros(n + w + 1, np.float32)
-    ext[:n] = dist
-    coef = np.empty((n, 4), np.float32)
-    coef[:, 0] = dist
-    np.subtract(ext[1:n + 1], dist, out=coef[:, 1])
-    np.subtract(ext[w:n + w], dist, out=coef[:, 2])
-    np.subtract(ext[w + 1:n + w + 1], ext[w:n + w], out=coef[:, 3])
-    coef[:, 3] -= coef[:, 1]
-    return coef.view(np.complex128).reshape(n)
-
-
-def _bilinear(c: np.ndarray, fu: np.ndarray, fv: np.ndarray) -> np.ndarray:
-    """The patches ``c`` (..., 4: ``_bilinear_coefficients``) at offsets fu, fv in their cells."""
-    return c[..., 0] + fu * c[..., 1] + fv * (c[..., 2] + fu * c[..., 3])
+def _bilinear(c: Tuple[np.ndarray, ...], fu: np.ndarray, fv: np.ndarray) -> np.ndarray:
+    """The bilinear patches ``c`` = (d, b, c, e) (``_LikelihoodFields._corners``) at
+    offsets fu, fv in their cells: d + fu b + fv (c + fu e)."""
+    return c[0] + fu * c[1] + fv * (c[2] + fu * c[3])
 
 
 class _LikelihoodFields:
@@ -526,15 +509,15 @@ class _LikelihoodFields:
         self.h = y1 - y0
         self.band = self.h + self.pad
         n = maps.n
-        key = maps.visits[:, y0:y1, x0:x1].astype(np.uint16) << 8
-        key |= maps.hits[:, y0:y1, x0:x1]
-        img = np.full((n, self.band, self.w), 255, dtype=np.uint8)
-        img[:, : self.h, :] = table[key]
+        img = field_image(maps.visits, maps.hits, window, self.band, table)
         dist = cv2.distanceTransform(img.reshape(n * self.band, self.w), cv2.DIST_L2,
                                      cv2.DIST_MASK_5)
         dist *= np.float32(res)
         np.minimum(dist, np.float32(cfg.match_radius), out=dist)
-        self.coef = _bilinear_coefficients(dist.reshape(-1), self.w)
+        # flat, rows of w cells, particle p's band from row p * band; a lookup reads its
+        # cell's four corners (``_corners``, ``climb``): the pad rows below each band keep
+        # them inside it
+        self.dist = dist.reshape(-1)
         # continuous cell coordinates of the window, pixel centres at integers
         self.origin_x = maps.info.origin_x + (x0 + 0.5) * res
         self.origin_y = maps.info.origin_y + (y0 + 0.5) * res
@@ -562,10 +545,12 @@ class _LikelihoodFields:
         return _bilinear(*self._corners(u, v, particle[:, None, None]))
 
     def _corners(self, u: np.ndarray, v: np.ndarray, particle: np.ndarray
-                 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The bilinear coefficients (u.shape + (4,)) of the cells under window cell
-        coordinates u, v (clamped to the window in place) of particles ``particle``
-        (broadcast against u), and the offsets fu, fv within those cells."""
+                 ) -> Tuple[Tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
+        """The bilinear patches of the cells under window cell coordinates u, v (clamped
+        to the window in place) of particles ``particle`` (broadcast against u): (d, b, c,
+        e), each of u's shape, float32, the distance at the cell's corner and
+        d + fu b + fv (c + fu e) across the cell; and the offsets fu, fv within the
+        cells."""
         np.clip(u, 0.0, self.w - 1.001, out=u)
         np.clip(v, 0.0, self.h - 1.001, out=v)
         iu = u.astype(np.int32)
@@ -578,8 +563,11 @@ class _LikelihoodFields:
         idx = iv * np.int32(self.w)
         idx += iu
         idx += particle.astype(np.int32) * np.int32(self.band * self.w)
-        c = self.coef.take(idx).view(np.float32).reshape(idx.shape + (4,))
-        return c, fu, fv
+        d00 = self.dist.take(idx)
+        b = self.dist.take(idx + 1) - d00
+        d01 = self.dist.take(idx + np.int32(self.w))
+        e = self.dist.take(idx + np.int32(self.w + 1)) - d01 - b
+        return (d00, b, d01 - d00, e), fu, fv
 
     def gradients(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray
                   ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -592,8 +580,8 @@ class _LikelihoodFields:
         xc, yc = self.cells(poses[:, 0], poses[:, 1])
         c, fu, fv = self._corners(xc + ru, yc + rv, particle[:, None])
         inv = np.float32(1.0 / self.res)
-        gx = (c[..., 1] + fv * c[..., 3]) * inv
-        gy = (c[..., 2] + fu * c[..., 3]) * inv
+        gx = (c[1] + fv * c[3]) * inv
+        gy = (c[2] + fu * c[3]) * inv
         return _bilinear(c, fu, fv), gx, gy, ru * self.res, rv * self.res
 
     def distances(self, poses: np.ndarray, particle: np.ndarray, pts: np.ndarray) -> np.ndarray:
