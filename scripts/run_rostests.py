@@ -25,7 +25,8 @@ temporary folder, removed when every file passed and named at the end otherwise.
 ``--jobs 1`` (the default) runs the files one after another, their output live. With
 ``--jobs 2`` a file may run beside another, by what it says of itself in a comment:
 ``run_rostests: light`` (little CPU: no simulator at speed, no camera rendering, no model
-training) may run beside any file but an exclusive one; ``run_rostests: exclusive`` runs
+training beyond a few seconds; its CPU time well under its wall time, see the lines
+printed) may run beside any file but an exclusive one; ``run_rostests: exclusive`` runs
 alone, before the others; any other file is heavy: never beside another heavy one. The
 heavy files go before the light ones: one after another they are the run's critical path
 (a light one taking the second slot as a heavy one ends would leave the next heavy one
