@@ -235,9 +235,10 @@ def test_the_cpu_time_counts_what_the_run_reaped():
     rc, cpu_s = runner.reap(burner, None)
     assert rc == 3 and burner.returncode == 3
     assert 0.6 <= cpu_s < 2.0, cpu_s
-    sleeper = subprocess.Popen(["sleep", "1"])
-    assert runner.reap(sleeper, 0.1) is None  # still running
-    rc, cpu_s = runner.reap(sleeper, 5.0)
+    sleeper = subprocess.Popen(["cat"], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
+    assert runner.reap(sleeper, 0.1) is None  # still running: it waits for its input
+    sleeper.stdin.close()  # its end, whenever the machine gets to it
+    rc, cpu_s = runner.reap(sleeper, 10.0)
     assert rc == 0 and cpu_s < 0.3, cpu_s
     killed = subprocess.Popen(["sleep", "30"])
     killed.terminate()

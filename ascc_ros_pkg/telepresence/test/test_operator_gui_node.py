@@ -69,13 +69,22 @@ def test_ctrl_c_ends_the_wait_for_an_unreachable_master(tmp_path):
     port = free_port()
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", ROS_IP="127.0.0.1",
                ROS_HOME=str(tmp_path))
-    gui = subprocess.Popen([sys.executable, str(NODE), "--master", "127.0.0.1:%d" % port],
-                           env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                           start_new_session=True, text=True)
-    time.sleep(3.0)
-    assert gui.poll() is None
-    os.killpg(gui.pid, signal.SIGINT)
-    _, err = gui.communicate(timeout=10)
+    log = tmp_path / "stderr.txt"
+    with open(log, "w") as err_file:
+        gui = subprocess.Popen([sys.executable, str(NODE), "--master",
+                                "127.0.0.1:%d" % port], env=env, stdout=subprocess.DEVNULL,
+                               stderr=err_file, start_new_session=True)
+    try:
+        # waiting for the master: Ctrl-C only once it says so (a fixed sleep would ask the
+        # start-up to finish within it)
+        wait(lambda: "unreachable" in log.read_text(), 20.0,
+             "the GUI naming the unreachable master")
+        assert gui.poll() is None
+        os.killpg(gui.pid, signal.SIGINT)
+        gui.wait(10)
+    finally:
+        stop(gui)
+    err = log.read_text()
     assert gui.returncode == 1, err  # cancelled: no robot picked
     assert "unreachable" in err and "Traceback" not in err, err
 

@@ -161,14 +161,16 @@ def test_silent_host_times_out():
     took = time.monotonic() - t0
     s.close()
     assert not ok and "unreachable" in text
-    assert took < 1.5
+    assert "timed out" in text  # the socket's own timeout ended it, not a reset
+    assert took < 10.0  # an end, not a hang (the default socket would wait forever)
 
 
 def test_an_xmlrpc_server_answering_getpid_counts_as_master():
     server = xmlrpc.server.SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False)
     server.register_function(lambda caller: [1, "", 4242], "getPid")
     threading.Thread(target=server.handle_request, daemon=True).start()
-    ok, text, pid = check_master("http://127.0.0.1:%d/" % server.server_address[1], 1.0)
+    # a timeout long enough for the server thread on a loaded machine: not what is tested
+    ok, text, pid = check_master("http://127.0.0.1:%d/" % server.server_address[1], 10.0)
     server.server_close()
     assert ok and pid == 4242 and "4242" in text
 
