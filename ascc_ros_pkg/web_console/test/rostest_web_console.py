@@ -204,7 +204,13 @@ class WebConsoleTest(unittest.TestCase):
         self.assertGreater(max(m.linear.x for m in self.out.all()), 0.0,
                            "the mux did not pass the operator's command")
         latency = self.zero_after(t_stop)
-        self.assertLess(latency, 0.3, "lease expiry took %.3f s" % latency)
+        # Causal: the last command was sent 0.05 s before t_stop, so a zero before 0.15 s
+        # means the 0.2 s lease did not hold; the upper bound tells the lease from a hang or
+        # another, longer timeout, not the latency (bench_console.py measures that: 20/20
+        # under 0.3 s on the idle machine; here two rostests share two cores).
+        self.assertGreaterEqual(latency, 0.14, "zero %.3f s after the last command: before "
+                                "the lease ran out" % latency)
+        self.assertLess(latency, 1.0, "lease expiry took %.3f s" % latency)
         # a second page cannot take over while the first holds the lease
         other = self.page()
         page.send({"type": "drive", "linear": 0.1, "angular": 0.0})
