@@ -56,6 +56,7 @@ sys.path.insert(0, os.path.join(NAV, "src"))
 from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.params import from_params, parameters  # noqa: E402
 from ascc_common.pose2d import compose, relative, wrap_angle  # noqa: E402
+from ascc_eval.drive_bag import ROUTES  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
 from ascc_navigation.grid import map_agreement  # noqa: E402
@@ -70,17 +71,6 @@ FEED_EVERY = 2  # feed every 2nd scan (5 Hz): the node also skips scans when bus
 WALL_RUNS = 10     # --odometry wall: calibrate_odometry runs (its README advises 10) ...
 WALL_RUN_M = 1.5   # ... of its default distance_m
 MIN_CLEARANCE_M = 0.25  # routes keep this far from obstacles (robot radius 0.165 m)
-
-# Loops through each world (world frame, metres); checked against the ground truth.
-ROUTES = {
-    "office": [(2.5, 7.6), (5.5, 7.2), (6.9, 7.2), (6.9, 5.5), (12.45, 5.5), (12.45, 7.1),
-               (14.3, 7.0), (12.45, 7.0), (12.45, 5.5), (9.45, 5.5), (9.45, 3.0), (6.5, 2.6),
-               (9.45, 3.0), (9.45, 5.5), (4.65, 5.5), (4.65, 3.0), (2.5, 2.6), (4.65, 3.0),
-               (4.65, 5.5), (1.9, 5.5), (1.9, 7.3), (2.5, 7.6), (4.0, 7.5)],
-    "lab": [(2.0, 1.5), (7.5, 1.5), (8.3, 2.5), (8.3, 5.5), (7.8, 6.3), (5.0, 6.4), (2.0, 6.3),
-            (2.0, 5.5), (2.0, 2.5), (2.0, 1.5), (4.5, 1.5)],
-    "corridor": [(5.0, 1.9), (98.1, 1.9), (98.1, 23.1), (1.9, 23.1), (1.9, 1.9), (12.0, 1.9)],
-}
 
 
 def load_params(path):

@@ -10,6 +10,12 @@ from rosbags.rosbag1 import Writer
 from ascc_common.params import param
 
 
+def rosbags_type(msgtype: str) -> str:
+    """'nav_msgs/Odometry' -> 'nav_msgs/msg/Odometry' (rosbags' naming)."""
+    pkg, _, name = msgtype.partition("/")
+    return msgtype if "/msg/" in msgtype else "%s/msg/%s" % (pkg, name)
+
+
 @dataclass
 class BagRecorderParams:
     """The bag_recorder node's parameters (private)."""

@@ -11,13 +11,7 @@ import os
 import rospy
 
 from ascc_common.params import from_params
-from ascc_eval.bagfile import BagRecorder, BagRecorderParams
-
-
-def rosbags_type(msgtype):
-    """'nav_msgs/Odometry' -> 'nav_msgs/msg/Odometry' (rosbags' naming)."""
-    pkg, _, name = msgtype.partition("/")
-    return msgtype if "/msg/" in msgtype else "%s/msg/%s" % (pkg, name)
+from ascc_eval.bagfile import BagRecorder, BagRecorderParams, rosbags_type
 
 
 class Recorder:
