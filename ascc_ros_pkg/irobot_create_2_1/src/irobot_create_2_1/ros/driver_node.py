@@ -14,12 +14,12 @@ import time
 
 import diagnostic_updater
 import rospy
-import tf2_ros
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
 
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, wrap_angle
@@ -30,6 +30,7 @@ from irobot_create_2_1.link import SerialLink
 from irobot_create_2_1.models import model as robot_model
 from irobot_create_2_1.msg import Hazards, LightBumper, SensorPacket
 from irobot_create_2_1.odometry import twist_covariance
+from irobot_create_2_1.ros.inline_publisher import InlinePublisher
 from irobot_create_2_1.srv import (
     Brake,
     BrakeResponse,
@@ -94,13 +95,16 @@ class CreateDriverNode:
         self.corrupt_reported = (0, 0, 0)  # parser counters named in the last warning
         self.mismatch_reported = False
 
-        self.odom_pub = rospy.Publisher("odom", Odometry, queue_size=10)
+        # Odometry and its TF go out from the reader thread itself (30 Hz to every TF
+        # listener): no writer thread per subscriber to wake, and a subscriber that stops
+        # reading is skipped, never waited for (the reader also runs the watchdog).
+        self.odom_pub = InlinePublisher("odom", Odometry, on_skip=self.on_skip)
         self.packet_pub = rospy.Publisher("sensorPacket", SensorPacket, queue_size=10)
         self.hazard_pub = rospy.Publisher("hazards", Hazards, queue_size=10)
         self.battery_pub = rospy.Publisher("battery", BatteryState, queue_size=1)
         self.light_pub = (rospy.Publisher("light_bumper", LightBumper, queue_size=10)
                           if self.create2 else None)
-        self.tf_pub = tf2_ros.TransformBroadcaster()
+        self.tf_pub = InlinePublisher("/tf", TFMessage, on_skip=self.on_skip)
         rospy.Subscriber("cmd_vel", Twist, self.on_cmd_vel, queue_size=1)
         self._services()
 
@@ -163,6 +167,12 @@ class CreateDriverNode:
             ready = self.throttle.ready(kind, rospy.get_time())
         if ready:
             rospy.logwarn("create driver: " + text)
+
+    def on_skip(self, subscriber, count):
+        """A subscriber of odom or TF whose socket is full was skipped (InlinePublisher)."""
+        self.warn("skip " + subscriber, "subscriber %s is not reading odom/TF (its socket is "
+                  "full): %d message(s) skipped for it so far, the others get every one"
+                  % (subscriber, count))
 
     def read_loop(self):
         was_open = False
@@ -325,7 +335,7 @@ class CreateDriverNode:
             t.child_frame_id = self.base_frame
             t.transform.translation.x, t.transform.translation.y = x, y
             t.transform.rotation = orientation
-            self.tf_pub.sendTransform(t)
+            self.tf_pub.publish(TFMessage([t]))
 
     # --- commands -------------------------------------------------------------------------
     def on_cmd_vel(self, msg):
