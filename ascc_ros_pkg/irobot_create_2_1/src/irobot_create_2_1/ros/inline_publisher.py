@@ -39,7 +39,9 @@ _GONE = select.POLLERR | select.POLLHUP | select.POLLNVAL
 class InlinePublisher:
     """``rospy.Publisher(name, data_class, queue_size=None)`` that skips subscribers whose
     socket has no room instead of blocking. ``on_skip(endpoint_id, count)``: called (in the
-    publishing thread) each time a subscriber is skipped, ``count`` its skips so far."""
+    publishing thread) each time a subscriber is skipped, ``count`` its skips so far.
+    ``publish`` takes a message instance of ``data_class`` (not rospy's field arguments)
+    and is meant for one publishing thread."""
 
     def __init__(self, name, data_class, on_skip=None, **kwargs):
         with warnings.catch_warnings():
@@ -59,6 +61,9 @@ class InlinePublisher:
         """Write ``msg`` to every subscriber whose socket has room; returns the number of
         subscribers skipped."""
         impl = self.pub.impl
+        if impl is None:
+            raise rospy.ROSException("publish() to an unregistered publisher of %s"
+                                     % self.pub.resolved_name)
         conns = impl.connections  # rospy replaces the list on a change: a stable snapshot
         if not conns:
             return 0
