@@ -50,10 +50,6 @@ class InlinePublisher:
         self.on_skip = on_skip
         self.skipped = {}  # endpoint id -> messages it missed so far
 
-    @property
-    def name(self):
-        return self.pub.resolved_name
-
     def get_num_connections(self):
         return self.pub.get_num_connections()
 
