@@ -26,8 +26,9 @@ import pytest
 
 rosbag = pytest.importorskip("rosbag")
 pytest.importorskip("ascc_sim")
+from ascc_common.params import from_params  # noqa: E402
 from ascc_eval.drive_bag import ROUTES, write_drive_bag  # noqa: E402
-from ascc_navigation.posegraph import LoopClosureConfig  # noqa: E402
+from ascc_navigation import mapper as M  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
@@ -53,7 +54,8 @@ def _params():
 
 
 def _bound_m(params):
-    return float(params.get("loop_max_correction_m", LoopClosureConfig().max_correction_m))
+    """The mapper's loop_max_correction_m, as the replay's config resolves it."""
+    return from_params(M.MapperConfig, params.get).loop.max_correction_m
 
 
 def test_the_bag_is_the_corridor_loop(corridor):
