@@ -12,6 +12,8 @@ filter seed:
     odometry frame at the first scan, placed in the world by the ground truth there);
   * map accuracy (``grid.map_agreement``: known cells that agree with the truth) and the
     share of the truth's free cells the map knows;
+  * with ``--set loop_closure=true``: what the pose graph's loop searches did (closed,
+    kept as an edge, rejected: how many, and the last reason of each);
   * odometry timing glitches: the heading of odom -> base_link against the ground truth at
     the same stamp, minus its slow drift (running median over 5 s). Wheel odometry drifts
     slowly; a glitch of several degrees that comes and goes means odometry stamped at the
@@ -307,10 +309,15 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
     updates = 0
     skip = np.asarray(late) > drop_late_s if drop_late_s > 0 else None
     dropped = 0 if skip is None else int(skip.sum())
+    loops = {}  # the pose graph's loop searches (loop_closure on): status -> count
+    last_loop = {}  # status -> the reason of its last one
     for stamp, scan, odom in run.mapper_inputs(skip):
         c0 = time.process_time()
         out = mapper.handle_scan(scan, odom, run.mount)
         cpu += time.process_time() - c0
+        if out.loop is not None and out.loop.status != "none":
+            loops[out.loop.status] = loops.get(out.loop.status, 0) + 1
+            last_loop[out.loop.status] = out.loop.reason
         if out.status in (M.STARTED, M.RESET) and run.truth is not None:
             # the map frame is the odometry frame at the first scan
             world_from_map = run.world_from_map(stamp, odom)
@@ -330,7 +337,8 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
                                        mapper.robot_pose(), mapper.slam.poses))
     grid, info = mapper.occupancy()
     result = {"seed": seed, "updates": updates, "dropped": dropped,
-              "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info}
+              "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info,
+              "loops": loops, "last_loop": last_loop}
     if errors:
         e = np.asarray(errors)
         result.update(max_err=float(e[:, 0].max()), mean_err=float(e[:, 0].mean()),
@@ -440,6 +448,10 @@ def replay_seeds(run, params, args, late):
             r.get("mean_err", math.nan), r.get("end_err", math.nan),
             r.get("max_head", math.nan), 100 * r.get("acc", math.nan),
             100 * r.get("known_free", math.nan)))
+        if params.get("loop_closure"):
+            print("     loop closure: %s" % (", ".join(
+                "%s %d (last: %s)" % (k, v, r["last_loop"][k])
+                for k, v in sorted(r["loops"].items())) or "no loop found"))
         sys.stdout.flush()
         if args.out:
             os.makedirs(args.out, exist_ok=True)

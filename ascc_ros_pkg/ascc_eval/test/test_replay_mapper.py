@@ -181,3 +181,28 @@ def test_replay_tracks_its_estimate_every_period(bag_path):
         assert th == pytest.approx(first[1], abs=1e-9)
         assert err >= 0.0
         assert lo <= head <= hi
+
+
+def test_replay_counts_the_loop_searches_when_loop_closure_is_on(tmp_path):
+    """With ``loop_closure`` on, the replay reports what the pose graph's loop searches did
+    (status -> count, and the last reason of each); with it off (as shipped) there are none.
+    The lab's loop (ascc_eval.drive_bag, about 26 m back to the start) with loop searches
+    allowed after 8 m of travel, as mapper_loop.test sets them."""
+    pytest.importorskip("ascc_sim")
+    import bench_mapper
+
+    from ascc_eval.drive_bag import ROUTES, write_drive_bag
+
+    path = str(tmp_path / "lab.bag")
+    write_drive_bag(path, "lab", ROUTES["lab"], seed=1)
+    run = replay_mapper.RunBag(path)
+    params = bench_mapper.load_params(bench_mapper.CONFIG)
+    params["particles"] = 5
+    off = replay_mapper.replay(run, params, 0, 0.0, run.tf_lateness())
+    assert off["loops"] == {} and off["last_loop"] == {}
+    params.update(loop_closure=True, loop_min_travel_m=8.0)
+    on = replay_mapper.replay(run, params, 0, 0.0, run.tf_lateness())
+    assert sum(on["loops"].values()) >= 1
+    assert set(on["loops"]) <= {"rejected", "kept", "closed"}
+    assert set(on["last_loop"]) == set(on["loops"])
+    assert all(on["last_loop"][k] for k in on["loops"])  # every status names its reason
