@@ -338,7 +338,7 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
     grid, info = mapper.occupancy()
     result = {"seed": seed, "updates": updates, "dropped": dropped,
               "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info,
-              "loops": loops, "last_loop": last_loop}
+              "loop_closure": mapper.cfg.loop.enabled, "loops": loops, "last_loop": last_loop}
     if errors:
         e = np.asarray(errors)
         result.update(max_err=float(e[:, 0].max()), mean_err=float(e[:, 0].mean()),
@@ -448,7 +448,7 @@ def replay_seeds(run, params, args, late):
             r.get("mean_err", math.nan), r.get("end_err", math.nan),
             r.get("max_head", math.nan), 100 * r.get("acc", math.nan),
             100 * r.get("known_free", math.nan)))
-        if params.get("loop_closure"):
+        if r["loop_closure"]:  # as the mapper's config resolved it, default included
             print("     loop closure: %s" % (", ".join(
                 "%s %d (last: %s)" % (k, v, r["last_loop"][k])
                 for k, v in sorted(r["loops"].items())) or "no loop found"))
