@@ -30,12 +30,19 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
   * "odom_scale": the true path length over the odometry's: the factor the run's odometry
     would need (its wheels' scale error; 1 with ``--odometry exact``).
 
+``--oracle PART`` (an attribution experiment, not a mapper setting): before each filter update
+registers its scan, every particle's pose is corrected in PART to the truth of that scan:
+``position`` (x, y), ``heading``, ``along`` (the component along the true heading) or
+``across`` (the component across it); the rest stays the filter's. The map is then built from
+poses wrong only in the other parts, so the agreement says how much of the loss is theirs.
+
 Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
 caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
 world files, ground truth ``truth_map``, scans from ascc_sim's URG-04LX model: 1 %
 range noise, dropouts at far range and grazing incidence, glass cabinet in the lab).
 
     python3 scripts/bench_mapper.py [--worlds synthetic,office,lab,corridor] [--seed 1]
+        [--runs N] [--odometry create1] [--oracle along] [--set NAME=VALUE]
 """
 import argparse
 import math
@@ -236,7 +243,49 @@ def increment_errors(truth, estimate, odom, min_step_m=0.1):
     return out[0], out[1]
 
 
-def run(world, params, seed, odom_kind, save=None):
+ORACLES = ("position", "heading", "along", "across")
+
+
+def apply_oracle(poses, truth, part):
+    """Correct ``poses`` (n, 3) in place in ``part`` (one of ORACLES) to ``truth`` (x, y,
+    theta): the position, the heading, or the position's component along / across the true
+    heading. The other parts stay as they were."""
+    if part == "heading":
+        poses[:, 2] = truth[2]
+        return poses
+    ex, ey = poses[:, 0] - truth[0], poses[:, 1] - truth[1]
+    c, s = math.cos(truth[2]), math.sin(truth[2])
+    if part == "position":
+        poses[:, 0], poses[:, 1] = truth[0], truth[1]
+    elif part == "along":
+        a = c * ex + s * ey
+        poses[:, 0] -= a * c
+        poses[:, 1] -= a * s
+    elif part == "across":
+        a = -s * ex + c * ey
+        poses[:, 0] += a * s
+        poses[:, 1] -= a * c
+    else:
+        raise ValueError("unknown oracle part %r (one of %s)" % (part, ", ".join(ORACLES)))
+    return poses
+
+
+def with_oracle(mapper, part, truth_now):
+    """Make ``mapper``'s filter correct its particles with ``apply_oracle`` (``part``, the
+    pose ``truth_now()`` returns) just before each registration of a scan into the maps.
+    Call again after the mapper made a new filter (a reset)."""
+    slam = mapper.slam
+    register = slam._register  # the filter's own step, wrapped here, not changed
+
+    def corrected(scan):
+        apply_oracle(slam.poses, truth_now(), part)
+        return register(scan)
+
+    slam._register = corrected
+    return slam
+
+
+def run(world, params, seed, odom_kind, save=None, oracle=None):
     rng = np.random.default_rng(seed)
     traj = S.waypoint_trajectory(world.route, v=0.3, w=0.8, dt=SCAN_PERIOD_S)
     if hasattr(world, "check_route"):
@@ -244,6 +293,8 @@ def run(world, params, seed, odom_kind, save=None):
     odom = odometry(odom_kind, traj, rng)
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     spec = world.spec
+    now = [0]  # the index of the scan being fed (the oracle's truth)
+    wrapped = with_oracle(mapper, oracle, lambda: traj[now[0]]) if oracle else None
     times, walls, errors, statuses = [], [], [], {}
     along, across, heading = [0.0], [0.0], []  # heading: one per update, no start value
     true_poses, scans, odom_poses = [], [], []  # of the updates (map at the true poses)
@@ -251,6 +302,9 @@ def run(world, params, seed, odom_kind, save=None):
     for k in range(0, traj.shape[0], FEED_EVERY):
         scan = M.ScanInput(k * SCAN_PERIOD_S, world.scan(traj[k]), spec.angle_min,
                            spec.angle_increment, spec.range_min, spec.range_max)
+        now[0] = k
+        if oracle and mapper.slam is not wrapped:
+            wrapped = with_oracle(mapper, oracle, lambda: traj[now[0]])
         t0, c0 = time.perf_counter(), time.process_time()
         out = mapper.handle_scan(scan, odom[k], world.mount)
         cpu, wall = time.process_time() - c0, time.perf_counter() - t0
@@ -318,6 +372,9 @@ def main():
                     choices=("sim", "wall", "calibrated", "exact", "harsh", "create1"),
                     default="sim", help="odometry error model (see odometry())")
     ap.add_argument("--save", metavar="DIR", help="write the maps and overlays here")
+    ap.add_argument("--oracle", choices=ORACLES, default=None,
+                    help="correct this part of every particle's pose to the truth before "
+                         "each scan is registered (an attribution experiment)")
     add_parameter_arguments(ap)
     args = ap.parse_args()
     if args.save:
@@ -326,8 +383,10 @@ def main():
     params = parameters_from_arguments(ap, args)
     if args.particles:
         params["particles"] = args.particles
-    print("mapper benchmark, %s odometry, parameters: %s" % (args.odometry, " ".join(
-        "%s=%s" % kv for kv in sorted(params.items()))))
+    print("mapper benchmark, %s odometry%s, parameters: %s" % (
+        args.odometry, ", ORACLE %s (the particles' %s set to the truth before each "
+        "registration)" % (args.oracle, args.oracle) if args.oracle else "",
+        " ".join("%s=%s" % kv for kv in sorted(params.items()))))
     columns = ("world", "seed", "route", "updates", "cpu_ms", "p95", "wall_ms", "accuracy",
                "free", "occ", "known", "end_err", "max_err", "along", "across", "odom", "map",
                "maps", "ideal", "cpu_s", "inc_mm", "odom_inc_mm", "sides_% corner_deg",
@@ -339,7 +398,7 @@ def main():
         for seed in range(args.seed, args.seed + args.runs):
             rng = np.random.default_rng(1000 + seed)
             world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
-            r = run(world, params, seed, args.odometry, args.save)
+            r = run(world, params, seed, args.odometry, args.save, args.oracle)
             a = r["acc"]
             print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
                   "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "

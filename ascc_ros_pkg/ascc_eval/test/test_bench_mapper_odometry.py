@@ -61,3 +61,39 @@ def test_create1_odometry_reports_the_turn_in_whole_degrees():
     steps = np.diff(np.unwrap(c1[:, 2])) / one
     assert np.allclose(steps, np.round(steps), atol=1e-6)
     assert _length(c1) == pytest.approx(_length(sim), rel=1e-3)
+
+
+@pytest.mark.parametrize("heading", [0.0, 0.7, -2.9])
+def test_oracle_corrects_only_the_part_it_names(heading):
+    truth = np.array([3.0, -1.0, heading])
+    c, s = np.cos(heading), np.sin(heading)
+    along, across, dtheta = 0.3, -0.2, 0.05
+    pose = np.array([[3.0 + along * c - across * s, -1.0 + along * s + across * c,
+                      heading + dtheta]])
+
+    def parts(p):  # (along, across, heading error) of p against the truth
+        ex, ey = p[0, 0] - truth[0], p[0, 1] - truth[1]
+        return c * ex + s * ey, -s * ex + c * ey, p[0, 2] - truth[2]
+
+    assert parts(pose) == pytest.approx((along, across, dtheta))
+    assert parts(bench_mapper.apply_oracle(pose.copy(), truth, "along")) == \
+        pytest.approx((0.0, across, dtheta))
+    assert parts(bench_mapper.apply_oracle(pose.copy(), truth, "across")) == \
+        pytest.approx((along, 0.0, dtheta))
+    assert parts(bench_mapper.apply_oracle(pose.copy(), truth, "position")) == \
+        pytest.approx((0.0, 0.0, dtheta))
+    assert parts(bench_mapper.apply_oracle(pose.copy(), truth, "heading")) == \
+        pytest.approx((along, across, 0.0))
+    with pytest.raises(ValueError):
+        bench_mapper.apply_oracle(pose.copy(), truth, "speed")
+
+
+def test_oracle_position_builds_the_map_at_the_true_positions():
+    # the synthetic office, a few metres: with the position set to the truth before each
+    # registration, the filter's trajectory is the true path (to the float), its heading not
+    world = bench_mapper.SyntheticWorld(np.random.default_rng(1))
+    world.route = world.route[:3]
+    r = bench_mapper.run(world, bench_mapper.load_params(bench_mapper.CONFIG), 1, "sim",
+                         oracle="position")
+    assert r["along"] < 1e-9 and r["across"] < 1e-9
+    assert r["heading_mrad"][1] > 0.0
