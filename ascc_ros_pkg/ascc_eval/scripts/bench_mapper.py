@@ -34,7 +34,9 @@ parameters ``config/gmapping.yaml`` (30 particles). Printed per world:
 registers its scan, every particle's pose is corrected in PART to the truth of that scan:
 ``position`` (x, y), ``heading``, ``along`` (the component along the true heading) or
 ``across`` (the component across it); the rest stays the filter's. The map is then built from
-poses wrong only in the other parts, so the agreement says how much of the loss is theirs.
+poses wrong only in the other parts: the agreement shows what the map loses to them. (All
+particles then share that part, so the weights cannot tell them apart in it; the losses of
+the parts do not add up to the shipped filter's.)
 
 Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
 caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
