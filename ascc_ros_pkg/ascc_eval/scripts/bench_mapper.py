@@ -275,7 +275,7 @@ def apply_oracle(poses, truth, part):
 def with_oracle(mapper, part, truth_now):
     """Make ``mapper``'s filter correct its particles with ``apply_oracle`` (``part``, the
     pose ``truth_now()`` returns) just before each registration of a scan into the maps.
-    Call again after the mapper made a new filter (a reset)."""
+    Returns the filter wrapped; call again when the mapper has a new one (a reset)."""
     slam = mapper.slam
     register = slam._register  # the filter's own step, wrapped here, not changed
 
@@ -296,7 +296,7 @@ def run(world, params, seed, odom_kind, save=None, oracle=None):
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     spec = world.spec
     now = [0]  # the index of the scan being fed (the oracle's truth)
-    wrapped = with_oracle(mapper, oracle, lambda: traj[now[0]]) if oracle else None
+    wrapped = None  # the filter the oracle wraps (a reset makes a new one)
     times, walls, errors, statuses = [], [], [], {}
     along, across, heading = [0.0], [0.0], []  # heading: one per update, no start value
     true_poses, scans, odom_poses = [], [], []  # of the updates (map at the true poses)
