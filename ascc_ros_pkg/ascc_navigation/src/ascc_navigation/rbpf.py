@@ -15,7 +15,10 @@ One filter update, given the odometry motion since the last update and a prepare
    beams ending beyond what the previous update's scan saw in their direction;
 3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, r_w)^2 / (2 lsigma^2), r_w the match
    radius or the smaller ``weight_radius_m``; optionally (``detrend_along``) minus its
-   linear trend in the particles' position along their mean heading;
+   linear trend in the particles' position along their mean heading; optionally
+   (``wall_axis_std_rad``) minus e_i^2 / (2 std^2), e_i the angle between the scan's
+   straight walls placed at particle i's heading and the walls of the first scan, modulo a
+   right angle (``wall_axes``);
 4. pose entropy H = -sum w_i log w_i of the normalised weights (published by the node);
 5. selective resampling when N_eff = 1 / sum w_i^2 < resampleThreshold * N (low variance);
 6. map update: every particle registers the scan at its pose into its map.
@@ -48,6 +51,7 @@ from ascc_common.pose2d import compose, mean_yaw, wrap_angle
 from ascc_navigation.climb import field_image, hill_climb
 from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
+from ascc_navigation.wall_axes import scan_wall_axis, wrap_right_angle
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
@@ -157,6 +161,22 @@ class RbpfConfig:
     degenerate_info: float = param(0.0, "[-] scan / motion-model information ratio below "
                                    "which a direction keeps the motion prediction; 0 off "
                                    "(not gmapping)")
+    # Not in gmapping: a heading prior from straight walls at right angles (``wall_axes``).
+    # Each scan's wall direction, placed at a particle's matched heading, is compared with
+    # the first scan's (modulo a right angle), and the particle's weight takes the Gaussian
+    # of that angle with this std. The matcher holds the heading against the particle's own
+    # map of the last few metres, about a hundredth of a radian loose, so over a long
+    # corridor the map's walls bend; this holds them to the directions they started with.
+    # A scan whose walls, at the particles' median heading, are more than wall_axis_gate_rad
+    # off is left out (walls not at right angles to the first). <0: off (the default here, as
+    # gmapping has none); config/gmapping.yaml sets 0.01: corridor and lab maps better,
+    # no broken corridor map online (docs/results/ascc_navigation.md).
+    wall_axis_std_rad: float = param(-1.0, "[rad] std of the heading prior from straight "
+                                     "walls at right angles to the first scan's; <0 off "
+                                     "(not gmapping)")
+    wall_axis_gate_rad: float = param(0.1, "[rad] scans whose walls are further than this "
+                                      "from the first scan's directions are left out of "
+                                      "the wall-axis prior")
 
     def validate(self) -> None:
         if self.particles < 1:
@@ -169,6 +189,8 @@ class RbpfConfig:
         for name in ("degenerate_info", "motion_prior", "prior_along"):
             if not getattr(self, name) >= 0.0:
                 raise ValueError("%s must be >= 0" % name)
+        if not 0.0 < self.wall_axis_gate_rad <= math.pi / 4.0:
+            raise ValueError("wall_axis_gate_rad must be in (0, pi/4]")
         if not 0.0 <= self.occ_thresh < 1.0:
             raise ValueError("occ_thresh must be in [0, 1)")
         if not (0.0 <= self.recover_score <= 1.0 and self.recover_angle >= 0.0
@@ -205,7 +227,11 @@ class UpdateStats:
     grown: bool = False        # the map grew
     log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
                                                 # / ogain, added to the log weights
-    weighed_poses: Optional[np.ndarray] = None  # (N, 3) the poses weighed (before resampling)
+    weighed_poses: Optional[np.ndarray] = None
+    # wall-axis prior: the scan's wall direction [rad, base frame, modulo a right angle]
+    # (None: no straight walls, or the prior is off) and whether it weighed the particles
+    wall_axis: Optional[float] = None
+    wall_axis_used: bool = False  # (N, 3) the poses weighed (before resampling)
 
 
 def detrend_along(gain: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -622,6 +648,9 @@ class RbpfSlam:
         # (column u), carried through resampling like its map (gmapping's particle tree)
         self._history = np.zeros((cfg.particles, 64, 3))
         self._previous: Optional[PreparedScan] = None  # the scan of the last update
+        # wall-axis prior: the map-frame direction of the walls (modulo a right angle), from
+        # the first scan that shows straight walls, placed at the best particle's pose
+        self.wall_reference: Optional[float] = None
 
     @property
     def weights(self) -> np.ndarray:
@@ -643,6 +672,11 @@ class RbpfSlam:
         stats = UpdateStats(entropy=weight_entropy(self.weights), neff=float(self.cfg.particles))
         stats.grown = self._register(scan)
         self._previous = scan
+        self.wall_reference = None
+        if self.cfg.wall_axis_std_rad > 0.0:
+            stats.wall_axis = self._wall_axis(scan)
+            if stats.wall_axis is not None:
+                self.wall_reference = float(wrap_right_angle(self.poses[0, 2] + stats.wall_axis))
         self.initialized = True
         self.updates = 1
         self._record(0)
@@ -727,6 +761,9 @@ class RbpfSlam:
             stats.log_gain = fields.log_likelihood(d, cfg.lsigma, cfg.weight_radius) / cfg.ogain
             if cfg.detrend_along:
                 stats.log_gain = detrend_along(stats.log_gain, self.poses)
+            if cfg.wall_axis_std_rad > 0.0:
+                stats.wall_axis = self._wall_axis(scan)
+                stats.wall_axis_used = self._weigh_wall_axis(stats.wall_axis, stats.log_gain)
             stats.weighed_poses = self.poses.copy()
             self.log_w += stats.log_gain
         self.log_w -= self.log_w.max()
@@ -748,6 +785,27 @@ class RbpfSlam:
         self._record(self.updates)
         self.updates += 1
         return stats
+
+    @staticmethod
+    def _wall_axis(scan: PreparedScan) -> Optional[float]:
+        axis = scan_wall_axis(scan.hits)
+        return None if axis is None else axis.angle
+
+    def _weigh_wall_axis(self, axis: Optional[float], log_gain: np.ndarray) -> bool:
+        """Adds the wall-axis prior's term to ``log_gain`` (in place); False if the scan shows
+        no straight walls or walls off the reference directions (the gate)."""
+        if axis is None:
+            return False
+        if self.wall_reference is None:  # the first scan with walls: after matching, the
+            self.wall_reference = float(wrap_right_angle(self.poses[self.best, 2] + axis))
+            return False                 # best particle's heading
+        err = wrap_right_angle(self.poses[:, 2] + axis - self.wall_reference)
+        gate = self.cfg.wall_axis_gate_rad
+        if abs(float(np.median(err))) > gate:
+            return False
+        err = np.minimum(np.abs(err), gate)
+        log_gain -= err * err / (2.0 * self.cfg.wall_axis_std_rad ** 2)
+        return True
 
     def _register(self, scan: PreparedScan) -> bool:
         xmin, ymin, xmax, ymax = self.maps.footprint(self.poses, scan)
