@@ -227,11 +227,11 @@ class UpdateStats:
     grown: bool = False        # the map grew
     log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
                                                 # / ogain, added to the log weights
-    weighed_poses: Optional[np.ndarray] = None
+    weighed_poses: Optional[np.ndarray] = None  # (N, 3) the poses weighed (before resampling)
     # wall-axis prior: the scan's wall direction [rad, base frame, modulo a right angle]
     # (None: no straight walls, or the prior is off) and whether it weighed the particles
     wall_axis: Optional[float] = None
-    wall_axis_used: bool = False  # (N, 3) the poses weighed (before resampling)
+    wall_axis_used: bool = False
 
 
 def detrend_along(gain: np.ndarray, poses: np.ndarray) -> np.ndarray:
