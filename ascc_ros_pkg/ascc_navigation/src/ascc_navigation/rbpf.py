@@ -673,10 +673,9 @@ class RbpfSlam:
         stats.grown = self._register(scan)
         self._previous = scan
         self.wall_reference = None
-        if self.cfg.wall_axis_std_rad > 0.0:
+        if self.cfg.wall_axis_std_rad > 0.0:  # the reference, if this scan shows walls
             stats.wall_axis = self._wall_axis(scan)
-            if stats.wall_axis is not None:
-                self.wall_reference = float(wrap_right_angle(self.poses[0, 2] + stats.wall_axis))
+            self._weigh_wall_axis(stats.wall_axis, np.zeros(self.cfg.particles))
         self.initialized = True
         self.updates = 1
         self._record(0)
