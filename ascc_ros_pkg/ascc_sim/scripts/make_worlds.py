@@ -13,6 +13,9 @@ import argparse
 import os
 import sys
 
+import numpy as np
+
+from ascc_common.map_io import PIXEL_FREE, PIXEL_OCCUPIED, PIXEL_UNKNOWN
 from ascc_sim.worldgen import Canvas
 
 WALL = 0.15  # interior wall thickness [m]
@@ -87,6 +90,49 @@ def corridor() -> Canvas:
     return c
 
 
+def _offset(loop, t):
+    """The closed counter-clockwise polygon ``loop`` with every edge moved by ``t`` [m] to
+    its left (inwards; t < 0: outwards), the corners mitred."""
+    pts = np.asarray(loop, dtype=np.float64)
+    d = np.roll(pts, -1, axis=0) - pts
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    n = np.column_stack([-d[:, 1], d[:, 0]])  # left normal of edge i (pts[i] -> pts[i + 1])
+    n_prev = np.roll(n, 1, axis=0)
+    return pts + t * (n_prev + n) / (1.0 + np.sum(n_prev * n, axis=1))[:, None]
+
+
+def _along(loop, side, s0, s1, t0, t1):
+    """The rectangle from ``s0`` to ``s1`` [m] along the loop's side ``side`` (from its
+    first corner) and from ``t0`` to ``t1`` [m] left of the side's centre line."""
+    a, b = np.asarray(loop[side], float), np.asarray(loop[(side + 1) % len(loop)], float)
+    d = (b - a) / np.linalg.norm(b - a)
+    n = np.array([-d[1], d[0]])
+    return [a + s * d + t * n for s, t in ((s0, t0), (s1, t0), (s1, t1), (s0, t1))]
+
+
+def annex() -> Canvas:
+    """A corridor loop whose walls are not all at right angles (a held-out world for the
+    mapper; no thesis figure): 2.4 m wide, 134 m round, one side at 45 degrees and a
+    long side 3.6 degrees off the others' axes, door recesses and pillars."""
+    c = Canvas(56.0, 30.0)
+    loop = [(4.0, 3.0), (40.0, 3.0), (52.0, 15.0), (52.0, 27.0), (4.0, 24.0)]  # centre line
+    face = 1.2  # the wall faces' distance from the centre line
+    c.polygon(_offset(loop, -face - OUTER), PIXEL_OCCUPIED)  # outer wall ...
+    c.polygon(_offset(loop, -face), PIXEL_FREE)              # ... the corridor ...
+    c.polygon(_offset(loop, face), PIXEL_OCCUPIED)           # ... the rooms' wall ...
+    c.polygon(_offset(loop, face + OUTER), PIXEL_UNKNOWN)    # ... and the rooms
+    recesses = {0: (6.0, 13.0, 21.0, 28.0), 1: (6.0, 11.0), 2: (5.0,),
+                3: (7.0, 15.0, 22.0, 30.0, 38.0), 4: (6.0, 13.0)}
+    for side, starts in recesses.items():  # door recesses, 1 m wide, 0.35 m deep
+        for s in starts:
+            c.polygon(_along(loop, side, s - 0.1, s + 1.1, face - 0.1, face + 0.45),
+                      PIXEL_OCCUPIED)
+            c.polygon(_along(loop, side, s, s + 1.0, face - 0.1, face + 0.35), PIXEL_FREE)
+    for side, s in ((0, 17.0), (3, 12.0), (3, 26.0), (3, 40.0), (4, 10.0)):  # pillars
+        c.polygon(_along(loop, side, s, s + 0.4, -face - 0.1, -face + 0.3), PIXEL_OCCUPIED)
+    return c
+
+
 def lab() -> Canvas:
     """The lab room of thesis fig. 2.12: 9 m x 7 m (door closed), a pillar, a counter."""
     c = Canvas(10.0, 8.0)
@@ -129,6 +175,7 @@ MAPS = {
     "lab": lab,
     "apartment": apartment,
     "office_vicon": office_vicon,
+    "annex": annex,
 }
 
 

@@ -13,7 +13,7 @@ from ascc_sim.world import WorldError, circle_overlaps, load_map, load_world
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WORLDS = os.path.join(PKG, "worlds")
-SHIPPED = ["office", "office_follow", "apartment_follow", "corridor", "lab", "apartment",
+SHIPPED = ["office", "office_follow", "apartment_follow", "corridor", "lab", "apartment", "annex",
            "three_robots"]
 
 
@@ -89,6 +89,18 @@ def test_shipped_world_contents():
     assert kinds.count("shelf") == 1
     assert len(apartment.people) == 1
     assert {wp.activity for wp in apartment.people[0].route} >= {"lie", "sit", "read"}
+
+    # the held-out loop: its north side runs 3.6 degrees off the others (centre line from
+    # (52, 27) to (4, 24), wall faces 1.2 m either side of it)
+    annex = load_world(os.path.join(WORLDS, "annex.yaml"))
+    slope = math.atan2(3.0, 48.0)
+    for x in (10.0, 28.0, 46.0):
+        y = 24.0 + (x - 4.0) * 3.0 / 48.0
+        nx, ny = -math.sin(slope), math.cos(slope)  # the side's normal
+        assert annex.map.value_at(x, y) == FREE
+        assert annex.map.value_at(x + 1.1 * nx, y + 1.1 * ny) == FREE
+        assert annex.map.value_at(x + 1.3 * nx, y + 1.3 * ny) == OCCUPIED
+        assert annex.map.value_at(x - 1.3 * nx, y - 1.3 * ny) == OCCUPIED
 
     lab = load_world(os.path.join(WORLDS, "lab.yaml"))
     assert sum(o.kind == "tripod" for o in lab.objects) == 2
