@@ -762,7 +762,7 @@ def test_prior_along_holds_the_position_along_the_heading_only(heading):
         R.RbpfConfig(prior_along=-1.0).validate()
 
 
-def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1)):
+def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1), **cfg_kw):
     """One update in the synthetic office with particles held at the truth turned by
     ``offsets`` [rad] (no motion noise; matched poses not accepted, so they stay)."""
     world = S.office_world()
@@ -771,7 +771,7 @@ def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1)):
     kw = dict(lskip=1, free_pullback=0.05, hit_offset=0.025)
     cfg = R.RbpfConfig(particles=len(offsets), xmin=0, ymin=0, xmax=14, ymax=10, srr=0.0,
                        srt=0.0, str=0.0, stt=0.0, resample_threshold=0.0, recover_score=0.0,
-                       minimum_score=1e9, wall_axis_std_rad=std)
+                       minimum_score=1e9, wall_axis_std_rad=std, **cfg_kw)
     slam = R.RbpfSlam(cfg, seed=0)
     slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
     slam.poses[:, 2] += np.asarray(offsets)
@@ -790,19 +790,24 @@ def test_wall_axis_prior_weighs_each_particles_heading_against_the_first_scans_w
     assert abs(on.wall_reference) < 2e-3
     assert on_stats.wall_axis_used
     # the prior's term: -e^2 / (2 std^2), e the particle's heading error (to the axis's
-    # own error of a milliradian or two)
+    # own error of a milliradian or two), capped at the gate (0.03: the -0.04 particle)
     extra = on_stats.log_gain - off_stats.log_gain
-    expected = -np.square(offsets) / (2 * 0.01 ** 2)
+    expected = -np.square(np.minimum(np.abs(offsets), 0.03)) / (2 * 0.01 ** 2)
     assert np.allclose(extra, expected, atol=1.0)
     assert extra[0] > extra[1] > extra[2]
 
 
 def test_wall_axis_prior_leaves_out_walls_off_the_first_scans_directions():
     # all particles 0.3 rad off: the scan's walls then lie 0.3 rad from the reference
-    # directions (beyond wall_axis_gate_rad 0.1), as walls not at right angles would
+    # directions (beyond wall_axis_gate_rad 0.03), as walls not at right angles would
     off, off_stats = _wall_axis_update(-1.0, [0.3, 0.31])
     on, on_stats = _wall_axis_update(0.01, [0.3, 0.31])
     assert on_stats.wall_axis is not None and not on_stats.wall_axis_used
     assert np.allclose(on_stats.log_gain, off_stats.log_gain)
+    # walls 0.062 rad off (the held-out annex world's skewed side): left out by the shipped
+    # gate, weighed (and so bent towards the first walls' axes) by a 0.1 rad gate
+    _, narrow = _wall_axis_update(0.01, [0.062, 0.063])
+    _, wide = _wall_axis_update(0.01, [0.062, 0.063], wall_axis_gate_rad=0.1)
+    assert not narrow.wall_axis_used and wide.wall_axis_used
     with pytest.raises(ValueError, match="wall_axis_gate_rad"):
         R.RbpfConfig(wall_axis_gate_rad=1.0).validate()

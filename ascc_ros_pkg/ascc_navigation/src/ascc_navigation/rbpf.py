@@ -168,13 +168,15 @@ class RbpfConfig:
     # map of the last few metres, about a hundredth of a radian loose, so over a long
     # corridor the map's walls bend; this holds them to the directions they started with.
     # A scan whose walls, at the particles' median heading, are more than wall_axis_gate_rad
-    # off is left out (walls not at right angles to the first). <0: off (the default here, as
-    # gmapping has none); config/gmapping.yaml sets 0.01: corridor and lab maps better,
-    # no broken corridor map online (docs/results/ascc_navigation.md).
+    # off is left out: walls not at right angles to the first (a gate of 0.1 let the prior
+    # bend a side 3.6 degrees off the others straight; 0.03, three of the prior's std, leaves
+    # it out), or a heading that strayed further (then not pulled back). <0: off (the
+    # default here, as gmapping has none); config/gmapping.yaml sets 0.01
+    # (docs/results/ascc_navigation.md).
     wall_axis_std_rad: float = param(-1.0, "[rad] std of the heading prior from straight "
                                      "walls at right angles to the first scan's; <0 off "
                                      "(not gmapping)")
-    wall_axis_gate_rad: float = param(0.1, "[rad] scans whose walls are further than this "
+    wall_axis_gate_rad: float = param(0.03, "[rad] scans whose walls are further than this "
                                       "from the first scan's directions are left out of "
                                       "the wall-axis prior")
 
