@@ -41,9 +41,10 @@ the parts do not add up to the shipped filter's.)
 Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
 caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
 world files, ground truth ``truth_map``, scans from ascc_sim's URG-04LX model: 1 %
-range noise, dropouts at far range and grazing incidence, glass cabinet in the lab); held
-out (not in the default list, no parameter was chosen on it): ``annex``, a 134 m corridor
-loop whose walls are not all at right angles (a side at 45 degrees, one 3.6 degrees off).
+range noise, dropouts at far range and grazing incidence, glass cabinet in the lab); not in
+the default list: ``annex``, a 134 m corridor loop whose walls are not all at right angles
+(a side at 45 degrees, one 3.6 degrees off), built to test the wall-axis prior's
+assumption of right angles.
 
     python3 scripts/bench_mapper.py [--worlds synthetic,office,lab,corridor] [--seed 1]
         [--runs N] [--odometry create1] [--oracle along] [--set NAME=VALUE]
