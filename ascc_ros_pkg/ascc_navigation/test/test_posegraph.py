@@ -217,6 +217,47 @@ def test_optimise_distributes_a_loop_residual():
     assert abs(P.wrap_angle(graph.poses[-1, 2])) < 0.02
 
 
+def _square_with_turn_errors():
+    """The square of ``test_optimise_distributes_a_loop_residual``: truth, and a graph of
+    its edges with turns 1 degree short and the loop edge end -> start not yet added."""
+    graph = PG.PoseGraph(PG.LoopClosureConfig(min_correction_m=0.0, max_correction_m=10.0,
+                                              wall_headings=True))
+    truth, est = [np.zeros(3)], [np.zeros(3)]
+    for k in range(40):
+        corner = k % 10 == 9
+        truth.append(P.compose(truth[-1], np.array([1.0, 0.0, math.pi / 2 if corner else 0.0])))
+        z = np.array([1.0, 0.0, math.pi / 2 - math.radians(1.0) if corner else 0.0])
+        est.append(P.compose(est[-1], z))
+        graph.edges.append((k, k + 1, z, np.array([10.0, 10.0, 50.0])))
+    graph.poses = np.array(est)
+    return graph, np.array(truth)
+
+
+def test_wall_headings_hold_the_headings_while_a_loop_closes():
+    """Keyframes whose scans showed walls at right angles to the first scan's carry that
+    direction (robot frame) into the graph: the loop edge then moves positions, not
+    headings, and the square closes on the truth, not on a rotated copy of it."""
+    plain, truth = _square_with_turn_errors()
+    plain.cfg.wall_headings = False
+    held, _ = _square_with_turn_errors()
+    # the walls lie along the map's axes (reference 0): seen from node k at its true heading
+    # they lie at -theta_k modulo a right angle; every other node saw them
+    walls = np.full(41, np.nan)
+    walls[::2] = -truth[::2, 2]
+    for graph in (plain, held):
+        graph.wall_axes = walls.copy()
+        graph.set_wall_axes(0.0, 0.01)
+        assert graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0])).status \
+            == "closed"
+    heading = {n: np.abs(P.wrap_angle(g.poses[:, 2] - truth[:, 2]))
+               for n, g in (("plain", plain), ("held", held))}
+    position = {n: np.hypot(*(g.poses[:, :2] - truth[:, :2]).T)
+                for n, g in (("plain", plain), ("held", held))}
+    assert heading["plain"].mean() > math.radians(0.2)   # the closure turned whole sides
+    assert heading["held"].mean() < 0.3 * heading["plain"].mean()
+    assert position["held"].mean() < 0.25 * position["plain"].mean()
+
+
 def test_mapper_closes_the_office_loop_and_keeps_tf_consistent():
     """The node's core with loop closure on, drifting odometry: the loop is
     found, the map agrees with the truth, and map -> odom -> base is the corrected pose."""

@@ -191,7 +191,7 @@ class SlamMapper:
                 return Outcome(REJECTED, "no beam of the first scan returned within maxUrange")
             stats = self.slam.start(odom_pose, prepared)
             self._mark_update(scan.stamp, odom_pose)
-            self._add_keyframe(odom_pose, prepared)
+            self._add_keyframe(odom_pose, prepared, stats)
             return Outcome(RESET if reset_reason else STARTED, reset_reason, stats)
         step = relative(previous_odom, odom_pose)
         jump = math.hypot(step[0], step[1])
@@ -216,11 +216,12 @@ class SlamMapper:
         prepared = self._prepare(scan, mount)
         stats = self.slam.update(relative(self.update_odom, odom_pose), prepared)
         self._mark_update(scan.stamp, odom_pose)
-        loop = self._add_keyframe(odom_pose, prepared) if prepared.usable else None
+        loop = self._add_keyframe(odom_pose, prepared, stats) if prepared.usable else None
         return Outcome(UPDATED, "" if prepared.usable else
                        "no beam returned within maxUrange: odometry only", stats, loop)
 
-    def _add_keyframe(self, odom_pose: np.ndarray, prepared) -> Optional[LoopResult]:
+    def _add_keyframe(self, odom_pose: np.ndarray, prepared,
+                      stats: UpdateStats) -> Optional[LoopResult]:
         """Keyframe for the pose graph (filter's best pose, this scan); on a loop closure
         the map is rebuilt from the corrected keyframes and the filter continues on it."""
         if not self.cfg.loop.enabled:
@@ -229,7 +230,9 @@ class SlamMapper:
                  else relative(self.keyframe_odom, odom_pose))
         self.keyframe_odom = odom_pose
         self.keyframe_updates.append(self.slam.updates - 1)
-        loop = self.graph.add_keyframe(self.slam.best_pose, prepared, delta)
+        self.graph.set_wall_axes(self.slam.wall_reference, self.cfg.rbpf.wall_axis_std_rad)
+        loop = self.graph.add_keyframe(self.slam.best_pose, prepared, delta,
+                                       stats.wall_axis if stats.wall_axis_used else None)
         if loop.status == "closed":
             maps = rebuild_counts(self.slam.new_maps, self.graph.poses, self.graph.scans)
             self.slam.restart(self.graph.poses[-1], maps)

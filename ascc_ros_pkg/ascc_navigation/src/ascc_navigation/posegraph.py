@@ -23,6 +23,11 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   along it), and a match with no fixed axis, or a heading std above ``max_spread_rad``,
   is rejected.
 
+* **heading measurement** of node k (``loop_wall_headings``): where the filter's wall-axis
+  prior held on scan k (its walls within the gate of the first scan's directions), the
+  residual wrap(theta_k + wall_k - reference) / ``wall_axis_std_rad``, wrapped to a right
+  angle: the closure then corrects positions, not the headings the walls fix.
+
 With a new loop edge the graph is optimised (``scipy.optimize.least_squares``, sparse
 analytic Jacobian, quadratic then Huber loss on whitened residuals, node 0 fixed). If the
 optimisation moves any node by more than ``max_correction_m`` the loop edge is removed and
@@ -75,6 +80,12 @@ class LoopClosureConfig:
                                     "rejected", "loop_max_correction_m", gt=0.0)
     min_correction_m: float = param(0.03, "[m] a closure moving no keyframe further leaves "
                                     "the map as is", "loop_min_correction_m", ge=0.0)
+    # The filter's wall-axis prior (rbpf's wall_axis_std_rad) measures the heading against
+    # the first scan's walls wherever it holds; without it in the graph a closure spreads
+    # its correction over the headings too, and turns sides that the prior had held
+    # (docs/results/ascc_navigation.md). No effect with the prior off.
+    wall_headings: bool = param(True, "keyframes where the wall-axis prior held keep its "
+                                "heading measurement in the graph", "loop_wall_headings")
     # Front end and edge uncertainties (not ROS parameters).
     # sequential match: pull of the position to the odometry's (see correlative_match's
     # prior); none on the heading, which the walls fix and the odometry's drifts
@@ -348,6 +359,11 @@ class PoseGraph:
         self._odom_info = np.zeros((0, 3, 3))    # its information (previous node's frame)
         self._scan_info = np.zeros((0, 3, 3))    # each node's scan information (own frame)
         self._filter_edges: List[int] = []       # edges taken from the filter's increments
+        # per keyframe the scan's wall direction (robot frame) where the filter's wall-axis
+        # prior held, else NaN; with the reference and std of that prior (``set_wall_axes``)
+        self.wall_axes = np.zeros(0)
+        self.wall_reference: Optional[float] = None
+        self.wall_std_rad = 0.0
         # the filter's trajectory at the keyframes (``reanchor`` before a loop search), or None
         self.trajectory_source: Optional[Callable[[], np.ndarray]] = None
 
@@ -355,11 +371,16 @@ class PoseGraph:
         return self.poses.shape[0]
 
     # -- front end -------------------------------------------------------------------
-    def add_keyframe(self, pose, scan: PreparedScan, odom_delta) -> LoopResult:
+    def add_keyframe(self, pose, scan: PreparedScan, odom_delta,
+                     wall_axis: Optional[float] = None) -> LoopResult:
         """Add the filter's pose ``pose`` (map frame) for ``scan``, taken after the odometry
-        motion ``odom_delta`` (previous keyframe's robot frame); search for a loop if due."""
+        motion ``odom_delta`` (previous keyframe's robot frame); search for a loop if due.
+        ``wall_axis``: the scan's wall direction [rad, robot frame] if the filter's wall-axis
+        prior held on it (kept as a heading measurement with ``loop_wall_headings``)."""
         cfg = self.cfg
         pose = np.asarray(pose, dtype=float)
+        self.wall_axes = np.append(self.wall_axes,
+                                   np.nan if wall_axis is None else float(wall_axis))
         self.points.append(_surface_points(scan.origin, scan.hits, self.hit_offset))
         self.match_points.append(_surface_points(scan.origin, scan.match, self.hit_offset))
         scan = _compact(scan)
@@ -397,6 +418,13 @@ class PoseGraph:
         if not cfg.enabled or k == 0 or travelled < self._next_check_m:
             return LoopResult()
         return self._search_loop(k)
+
+    def set_wall_axes(self, reference: Optional[float], std_rad: float) -> None:
+        """The filter's wall-axis reference direction [rad, map frame, modulo a right angle]
+        and its prior's std: with ``loop_wall_headings`` each keyframe that carries a wall
+        direction adds the residual wrap(theta + wall - reference) / std to the graph."""
+        self.wall_reference = reference
+        self.wall_std_rad = std_rad
 
     def _odometry_information(self, odom_delta: np.ndarray) -> np.ndarray:
         """Information (previous keyframe's frame) of the odometry increment ``odom_delta``:
@@ -589,6 +617,13 @@ class PoseGraph:
         ww = np.array([_sqrt_info(e[3]) for e in self.edges])
         m = ii.size
         x_fixed = self.poses[0].copy()
+        walls = np.zeros(0, dtype=np.int64)
+        if (self.cfg.wall_headings and self.wall_reference is not None
+                and self.wall_std_rad > 0.0):
+            walls = np.nonzero(np.isfinite(self.wall_axes[:n]))[0]
+            walls = walls[walls > 0]
+        wall_dir = self.wall_axes[walls] - self.wall_reference
+        quarter = 0.5 * math.pi
 
         def unpack(x):
             p = np.vstack([x_fixed, x.reshape(-1, 3)])
@@ -600,7 +635,12 @@ class PoseGraph:
             pi, pj, c, s, dx, dy = unpack(x)
             e = np.column_stack([c * dx + s * dy - zz[:, 0], -s * dx + c * dy - zz[:, 1],
                                  wrap_angle(pj[:, 2] - pi[:, 2] - zz[:, 2])])
-            return np.einsum("mab,mb->ma", ww, e).ravel()
+            r = np.einsum("mab,mb->ma", ww, e).ravel()
+            if walls.size == 0:
+                return r
+            th = x.reshape(-1, 3)[walls - 1, 2] + wall_dir
+            return np.concatenate([r, ((th + quarter / 2.0) % quarter - quarter / 2.0)
+                                   / self.wall_std_rad])
 
         def jacobian(x):
             _, _, c, s, dx, dy = unpack(x)
@@ -619,9 +659,13 @@ class PoseGraph:
                 rows.append(np.broadcast_to(r, d.shape)[keep])
                 cols.append(np.broadcast_to(col, d.shape)[keep])
                 vals.append(np.einsum("mab,mbc->mac", ww, d)[keep])
+            if walls.size:
+                rows.append(3 * m + np.arange(walls.size))
+                cols.append(3 * (walls - 1) + 2)
+                vals.append(np.full(walls.size, 1.0 / self.wall_std_rad))
             return csr_matrix((np.concatenate(vals), (np.concatenate(rows),
                                                       np.concatenate(cols))),
-                              shape=(3 * m, 3 * (n - 1)))
+                              shape=(3 * m + walls.size, 3 * (n - 1)))
 
         x = self.poses[1:].ravel()
         for loss in ("linear", "huber"):
