@@ -258,6 +258,36 @@ def test_wall_headings_hold_the_headings_while_a_loop_closes():
     assert position["held"].mean() < 0.25 * position["plain"].mean()
 
 
+def test_a_loop_match_closes_only_with_a_second_that_agrees():
+    """``loop_confirm``: the first accepted match waits; a second that disagrees with it
+    (optimised together, a residual beyond confirm_sigmas of its stds) drops the first,
+    and one that agrees closes the loop with both. The square's end, node 40, is back at
+    the start; a wrong match puts it 0.8 m along the first side, as a corridor match can."""
+    graph, truth = _square_with_turn_errors()
+    graph.cfg.wall_headings = False
+    assert graph.cfg.confirm
+    w = np.array([20.0, 20.0, 50.0])
+    before = graph.poses.copy()
+    wrong = graph.propose_loop(0, 40, np.array([0.8, 0.0, 0.0]), w, "wrong")
+    assert wrong.status == "pending"
+    np.testing.assert_array_equal(graph.poses, before)   # nothing applied yet
+    right = P.relative(truth[1], truth[40])
+    r = graph.propose_loop(1, 40, right, w, "right")
+    assert r.status == "rejected" and "disagree" in r.reason, r.reason
+    np.testing.assert_array_equal(graph.poses, before)
+    assert len(graph.edges) == 40                          # no loop edge kept
+    r = graph.propose_loop(2, 40, P.relative(truth[2], truth[40]), w, "right again")
+    assert r.status == "closed", r.reason
+    assert graph.loop_edges == 2 and graph.pending is None
+    assert math.hypot(*graph.poses[40, :2]) < 0.1          # the square closed
+    # without loop_confirm the wrong match alone would have closed it, 0.8 m off
+    graph, _ = _square_with_turn_errors()
+    graph.cfg.wall_headings = False
+    graph.cfg.confirm = False
+    assert graph.propose_loop(0, 40, np.array([0.8, 0.0, 0.0]), w).status == "closed"
+    assert math.hypot(*graph.poses[40, :2]) > 0.6
+
+
 def test_mapper_closes_the_office_loop_and_keeps_tf_consistent():
     """The node's core with loop closure on, drifting odometry: the loop is
     found, the map agrees with the truth, and map -> odom -> base is the corrected pose."""

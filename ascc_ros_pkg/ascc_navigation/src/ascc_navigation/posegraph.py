@@ -23,6 +23,10 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   along it), and a match with no fixed axis, or a heading std above ``max_spread_rad``,
   is rejected.
 
+* **confirmation** (``loop_confirm``): an accepted match waits for the next accepted one;
+  the two are added only if, optimised together, they cost the graph no more squared
+  whitened error than a chi-square at ``confirm_sigmas`` above either alone (two right
+  matches say the same; a wrong one, however confident, disagrees with the next);
 * **heading measurement** of node k (``loop_wall_headings``): where the filter's wall-axis
   prior held on scan k (its walls within the gate of the first scan's directions), the
   residual wrap(theta_k + wall_k - reference) / ``wall_axis_std_rad``, wrapped to a right
@@ -46,6 +50,7 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix
+from scipy.stats import chi2
 
 from ascc_common.params import param
 from ascc_common.pose2d import compose, relative, wrap_angle
@@ -84,6 +89,8 @@ class LoopClosureConfig:
     # the first scan's walls wherever it holds; without it in the graph a closure spreads
     # its correction over the headings too, and turns sides that the prior had held
     # (docs/results/ascc_navigation.md). No effect with the prior off.
+    confirm: bool = param(True, "a loop match closes only with a second one that agrees "
+                          "with it", "loop_confirm")
     wall_headings: bool = param(True, "keyframes where the wall-axis prior held keep its "
                                 "heading measurement in the graph", "loop_wall_headings")
     # Front end and edge uncertainties (not ROS parameters).
@@ -118,12 +125,17 @@ class LoopClosureConfig:
     odom_sigma_theta: Tuple[float, float] = (0.01, 0.05)    # [rad] + [rad/m]
     loop_sigma_xy: float = 0.05       # [m] std of a loop edge
     loop_sigma_theta: float = 0.02    # [rad]
+    # two loop matches agree if adding the second to the graph with the first costs no
+    # more than a chi-square of its fixed axes at the probability of this many stds
+    # (``loop_confirm``)
+    confirm_sigmas: float = 3.0
 
 
 class LoopResult:
     """What ``PoseGraph.add_keyframe`` did. ``status``: ``none`` (no loop search or no
-    candidate), ``rejected`` (``reason`` says why), ``kept`` (loop edge added, correction
-    below ``min_correction_m``), ``closed`` (poses corrected: rebuild the map)."""
+    candidate), ``rejected`` (``reason`` says why), ``pending`` (an accepted match waits
+    for a second one, ``loop_confirm``), ``kept`` (loop edges added, correction below
+    ``min_correction_m``), ``closed`` (poses corrected: rebuild the map)."""
 
     __slots__ = ("status", "reason", "correction_m", "anchor", "score")
 
@@ -364,6 +376,10 @@ class PoseGraph:
         self.wall_axes = np.zeros(0)
         self.wall_reference: Optional[float] = None
         self.wall_std_rad = 0.0
+        # an accepted loop match waiting for a second one (``loop_confirm``):
+        # (i, j, z, sqrt_info, where, score)
+        self.pending: Optional[tuple] = None
+        self.last_cost = 0.0  # sum of squared whitened residuals after the last optimise()
         # the filter's trajectory at the keyframes (``reanchor`` before a loop search), or None
         self.trajectory_source: Optional[Callable[[], np.ndarray]] = None
 
@@ -573,7 +589,49 @@ class PoseGraph:
             sqrt_info[a, :2] = axes[:, a] / max(std[a], cfg.loop_sigma_xy)
         sqrt_info[2, 2] = 1.0 / max(std_theta, cfg.loop_sigma_theta)
         z = relative(self.poses[anchor], best)
-        return self.close_loop(anchor, k, z, sqrt_info, where, score)
+        return self.propose_loop(anchor, k, z, sqrt_info, where, score)
+
+    def propose_loop(self, i: int, j: int, z, sqrt_info, where: str = "",
+                     score: float = 0.0) -> LoopResult:
+        """An accepted loop match i -> j. Without ``loop_confirm`` it closes at once
+        (``close_loop``). With it, the first match waits; the next one is optimised together
+        with it, and both close only if each stays within ``confirm_sigmas`` of its own
+        stds. A pair that disagrees is dropped but for the newer match, which waits for the
+        next. (A match can be wrong and still pass the score and spread tests: along a
+        corridor a match 0.8 m off claimed an 8 cm std.)"""
+        where = where or "keyframes %d -> %d" % (i, j)
+        edge = (i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where, score)
+        if not self.cfg.confirm:
+            return self.close_loop(*edge)
+        first, self.pending = self.pending, edge
+        if first is None:
+            return LoopResult("pending", "loop match with %s (score %.2f) waits for a second "
+                              "one to agree" % (where, score), anchor=i, score=score)
+        # the cost of the two together above the cost of either alone: small if they say
+        # the same, about their disagreement squared over the stds of the short paths
+        # between their ends if not (however much a long loop could absorb of either)
+        both = self._cost_with([first, edge])
+        added = both - max(self._cost_with([first]), self._cost_with([edge]))
+        dof = min(np.linalg.matrix_rank(first[3]), np.linalg.matrix_rank(edge[3]))
+        bound = chi2.ppf(math.erf(self.cfg.confirm_sigmas / math.sqrt(2.0)), dof)
+        if added > bound:
+            return LoopResult("rejected", "loop matches with %s and with %s disagree (together "
+                              "they add %.1f to the graph's squared error, more than %.1f); "
+                              "the second waits for another" % (first[4], where, added, bound),
+                              anchor=i, score=score)
+        self.pending = None
+        return self._close([first, edge], "%s and %s" % (first[4], where), score)
+
+    def _cost_with(self, loops) -> float:
+        """The graph's sum of squared whitened residuals, optimised with the given loop
+        edges added (and then removed again)."""
+        n_edges = len(self.edges)
+        self.edges.extend((i, j, z, w) for i, j, z, w, _, _ in loops)
+        try:
+            self.optimise()
+        finally:
+            del self.edges[n_edges:]
+        return self.last_cost
 
     # -- back end --------------------------------------------------------------------
     def close_loop(self, i: int, j: int, z, sqrt_info, where: str = "",
@@ -581,19 +639,27 @@ class PoseGraph:
         """Add the loop edge i -> j (measurement ``z``; ``sqrt_info``: 1/std per axis, or
         a 3x3 square-root information matrix), optimise, and keep the result within the
         correction bounds (see the module doc)."""
-        cfg = self.cfg
         where = where or "keyframes %d -> %d" % (i, j)
-        self.edges.append((i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info)))
+        return self._close([(i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where,
+                             score)], where, score)
+
+    def _close(self, loops, where: str, score: float) -> LoopResult:
+        """Add the loop edges ``loops`` ((i, j, z, sqrt_info, where, score) each), optimise,
+        and keep the result within the correction bounds."""
+        cfg = self.cfg
+        i = loops[0][0]
+        n_edges = len(self.edges)
+        self.edges.extend((a, b, z, w) for a, b, z, w, _, _ in loops)
         optimised = self.optimise()
         moved = np.hypot(optimised[:, 0] - self.poses[:, 0], optimised[:, 1] - self.poses[:, 1])
         correction = float(moved.max())
         if correction > cfg.max_correction_m:
-            self.edges.pop()
+            del self.edges[n_edges:]
             return LoopResult("rejected", "loop closure with %s rejected: it would move the "
                               "map by %.2f m (more than loop_max_correction_m %.2f m)"
                               % (where, correction, cfg.max_correction_m),
                               correction, i, score)
-        self.loop_edges += 1
+        self.loop_edges += len(loops)
         if correction <= cfg.min_correction_m:
             return LoopResult("kept", "loop edge with %s agrees with the map (largest "
                               "correction %.3f m)" % (where, correction), correction, i, score)
@@ -610,6 +676,7 @@ class PoseGraph:
         whole graph quadratically."""
         n = len(self)
         if n < 2 or not self.edges:
+            self.last_cost = 0.0
             return self.poses.copy()
         ii = np.array([e[0] for e in self.edges])
         jj = np.array([e[1] for e in self.edges])
@@ -671,6 +738,7 @@ class PoseGraph:
         for loss in ("linear", "huber"):
             x = least_squares(residuals, x, jac=jacobian, loss=loss, f_scale=1.0,
                               method="trf", tr_solver="lsmr", max_nfev=20).x
+        self.last_cost = float(np.sum(np.square(residuals(x))))
         out = np.vstack([x_fixed, x.reshape(-1, 3)])
         out[:, 2] = wrap_angle(out[:, 2])
         return out

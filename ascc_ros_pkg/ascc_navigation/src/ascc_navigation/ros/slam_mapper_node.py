@@ -170,8 +170,9 @@ class SlamMapperNode:
 
     # -- helpers ---------------------------------------------------------------------
     def report_loop(self, loop):
-        """Log a loop closure (and publish its rebuilt map at once) or a closure rejected by
-        loop_max_correction_m (``loop``: ``Outcome.loop``, None without a loop search)."""
+        """Log a loop closure (and publish its rebuilt map at once), a closure rejected by
+        loop_max_correction_m, or two loop matches that disagree (``loop``: ``Outcome.loop``,
+        None without a loop search)."""
         if loop is None:
             return
         if loop.status == "closed":
@@ -180,6 +181,8 @@ class SlamMapperNode:
             self.last_map_time = None
         elif loop.status == "rejected" and "loop_max_correction_m" in loop.reason:
             self.warn("slam_mapper: %s" % loop.reason)
+        elif loop.status == "rejected" and "disagree" in loop.reason:  # loop_confirm
+            rospy.loginfo("slam_mapper: %s", loop.reason)
 
     def warn(self, text):
         """Log a warning, each kind (the text without its numbers) once per WARN_PERIOD_S."""
