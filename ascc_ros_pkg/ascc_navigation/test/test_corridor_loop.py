@@ -38,12 +38,13 @@ def _config():
     # the keyframes' mean error from 0.10 to 0.16 m, i.e. it does harm there, which
     # docs/results/ascc_navigation.md reports as one reason the closure stays off.
     params["lskip"] = 2
-    # The wall-axis heading prior is on (config/gmapping.yaml), and with it the graph keeps
-    # its heading measurements (loop_wall_headings, the default): without them this run's
-    # first closure raised the keyframes' mean error from 0.164 to 0.176 m, with them its
-    # closures take it to 0.153 m (four, each of two agreeing matches, loop_confirm; 0.150
-    # m in six without it) (docs/results/ascc_navigation.md).
-    assert params.get("wall_axis_std_rad", -1.0) > 0.0
+    # ... and without the wall-axis heading prior (on in config/gmapping.yaml since the
+    # closure was written). With it, and with its heading measurements in the graph
+    # (loop_wall_headings), this run's closures took the keyframes' mean error from 0.164
+    # to 0.153 m with Debian 12's numpy and OpenCV, but with Ubuntu 20.04's the first
+    # closure raised it from 0.124 to 0.254 m (2026-11-30): the two together are not shown
+    # to work (docs/results/ascc_navigation.md, "Two loop matches that agree").
+    params["wall_axis_std_rad"] = -1.0
     return from_params(M.MapperConfig, params.get)
 
 
@@ -104,7 +105,7 @@ def test_corridor_loop_closes_within_the_bound():
     # every applied closure stayed within the bound and did no harm: the trajectory
     # (keyframes vs the truth) no worse than before it by more than 1 cm. On this corridor
     # the filter itself keeps the loop's error near 0.15 m, and the closures move it by
-    # millimetres (Debian 12's numpy/OpenCV: 0.164 -> 0.153 m over four closures); that a
+    # millimetres; that a
     # closure removes a known drift is test_posegraph.py's test (0.318 -> 0.105 m mean).
     assert all(r.correction_m <= cfg.loop.max_correction_m for r in closed)
     assert all(after <= before + 0.01 for before, after in before_after), before_after

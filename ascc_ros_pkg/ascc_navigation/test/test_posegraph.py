@@ -265,7 +265,7 @@ def test_a_loop_match_closes_only_with_a_second_that_agrees():
     the start; a wrong match puts it 0.8 m along the first side, as a corridor match can."""
     graph, truth = _square_with_turn_errors()
     graph.cfg.wall_headings = False
-    assert graph.cfg.confirm
+    graph.cfg.confirm = True
     w = np.array([20.0, 20.0, 50.0])
     before = graph.poses.copy()
     wrong = graph.propose_loop(0, 40, np.array([0.8, 0.0, 0.0]), w, "wrong")
