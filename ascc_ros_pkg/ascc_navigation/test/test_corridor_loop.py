@@ -39,11 +39,12 @@ def _config():
     # docs/results/ascc_navigation.md reports as one reason the closure stays off.
     params["lskip"] = 2
     # ... and without the wall-axis heading prior (on in config/gmapping.yaml since the
-    # closure was written). With it, and with its heading measurements in the graph
-    # (loop_wall_headings), this run's closures took the keyframes' mean error from 0.164
-    # to 0.153 m with Debian 12's numpy and OpenCV, but with Ubuntu 20.04's the first
-    # closure raised it from 0.124 to 0.254 m (2026-11-30): the two together are not shown
-    # to work (docs/results/ascc_navigation.md, "Two loop matches that agree").
+    # closure was written). With it, its heading measurements in the graph
+    # (loop_wall_headings) and loop_confirm, this run's closures took the keyframes' mean
+    # error from 0.164 to 0.153 m with Debian 12's numpy and OpenCV, but with Ubuntu
+    # 20.04's the first closure raised it from 0.124 to 0.254 m (2026-11-30): the two
+    # together are not shown to work (docs/results/ascc_navigation.md, "Two loop matches
+    # that agree").
     params["wall_axis_std_rad"] = -1.0
     return from_params(M.MapperConfig, params.get)
 
@@ -104,9 +105,9 @@ def test_corridor_loop_closes_within_the_bound():
     assert closed, "the corridor loop did not close"
     # every applied closure stayed within the bound and did no harm: the trajectory
     # (keyframes vs the truth) no worse than before it by more than 1 cm. On this corridor
-    # the filter itself keeps the loop's error near 0.15 m, and the closures move it by
-    # millimetres; that a
-    # closure removes a known drift is test_posegraph.py's test (0.318 -> 0.105 m mean).
+    # the filter itself keeps the loop's error at 0.1-0.2 m (with the library versions),
+    # and each closure moves it by millimetres, either way; that a closure removes a known
+    # drift is test_posegraph.py's test (0.318 -> 0.105 m mean).
     assert all(r.correction_m <= cfg.loop.max_correction_m for r in closed)
     assert all(after <= before + 0.01 for before, after in before_after), before_after
     # the loop's end: map -> odom -> base near the truth, map close to the floor plan

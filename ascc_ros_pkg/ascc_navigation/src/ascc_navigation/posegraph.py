@@ -85,15 +85,15 @@ class LoopClosureConfig:
                                     "rejected", "loop_max_correction_m", gt=0.0)
     min_correction_m: float = param(0.03, "[m] a closure moving no keyframe further leaves "
                                     "the map as is", "loop_min_correction_m", ge=0.0)
+    # Opt-in: it rejected the corridor's wrong match (0.8 m off, an 8 cm std claimed), but
+    # in test_corridor_loop's run one of its closures raised the keyframes' mean error by
+    # 1.1 cm (docs/results/ascc_navigation.md, "Two loop matches that agree").
+    confirm: bool = param(False, "a loop match closes only with a second one that agrees "
+                          "with it", "loop_confirm")
     # The filter's wall-axis prior (rbpf's wall_axis_std_rad) measures the heading against
     # the first scan's walls wherever it holds; without it in the graph a closure spreads
     # its correction over the headings too, and turns sides that the prior had held
     # (docs/results/ascc_navigation.md). No effect with the prior off.
-    # opt-in: it rejected the corridor's wrong match (0.8 m off, an 8 cm std claimed), but
-    # in test_corridor_loop's run one of its closures raised the keyframes' mean error by
-    # 1.1 cm (docs/results/ascc_navigation.md, "Two loop matches that agree")
-    confirm: bool = param(False, "a loop match closes only with a second one that agrees "
-                          "with it", "loop_confirm")
     wall_headings: bool = param(True, "keyframes where the wall-axis prior held keep its "
                                 "heading measurement in the graph", "loop_wall_headings")
     # Front end and edge uncertainties (not ROS parameters).
@@ -598,10 +598,11 @@ class PoseGraph:
                      score: float = 0.0) -> LoopResult:
         """An accepted loop match i -> j. Without ``loop_confirm`` it closes at once
         (``close_loop``). With it, the first match waits; the next one is optimised together
-        with it, and both close only if each stays within ``confirm_sigmas`` of its own
-        stds. A pair that disagrees is dropped but for the newer match, which waits for the
-        next. (A match can be wrong and still pass the score and spread tests: along a
-        corridor a match 0.8 m off claimed an 8 cm std.)"""
+        with it, and both close only if the pair adds no more squared whitened error to the
+        graph than a chi-square at ``confirm_sigmas`` above either alone. A pair that
+        disagrees is dropped but for the newer match, which waits for the next. (A match
+        can be wrong and still pass the score and spread tests: along a corridor a match
+        0.8 m off claimed an 8 cm std.)"""
         where = where or "keyframes %d -> %d" % (i, j)
         edge = (i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where, score)
         if not self.cfg.confirm:
