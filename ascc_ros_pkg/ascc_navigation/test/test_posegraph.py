@@ -195,21 +195,7 @@ def test_corridor_match_fixes_only_the_lateral_position_and_heading():
 def test_optimise_distributes_a_loop_residual():
     """Back end alone: a square of 4 x 10 unit steps whose odometry edges turn 1 degree
     too little each; one loop edge end -> start makes the optimised square close."""
-    cfg = PG.LoopClosureConfig(min_correction_m=0.0, max_correction_m=10.0)
-    graph = PG.PoseGraph(cfg)
-    step = np.array([1.0, 0.0, 0.0])
-    turn = np.array([1.0, 0.0, math.pi / 2 - math.radians(1.0)])
-    truth = [np.zeros(3)]
-    for k in range(40):
-        truth.append(P.compose(truth[-1], np.array([1.0, 0.0, math.pi / 2 if k % 10 == 9
-                                                   else 0.0])))
-    truth = np.array(truth)
-    est = [np.zeros(3)]
-    for k in range(40):
-        z = turn if k % 10 == 9 else step
-        est.append(P.compose(est[-1], z))
-        graph.edges.append((k, k + 1, z.copy(), np.array([10.0, 10.0, 50.0])))
-    graph.poses = np.array(est)
+    graph, truth = _square_with_turn_errors()
     assert _pose_error(graph.poses, truth)[-1] > 0.3
     r = graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0]))
     assert r.status == "closed"
@@ -264,7 +250,6 @@ def test_a_loop_match_closes_only_with_a_second_that_agrees():
     and one that agrees closes the loop with both. The square's end, node 40, is back at
     the start; a wrong match puts it 0.8 m along the first side, as a corridor match can."""
     graph, truth = _square_with_turn_errors()
-    graph.cfg.wall_headings = False
     graph.cfg.confirm = True
     w = np.array([20.0, 20.0, 50.0])
     before = graph.poses.copy()
@@ -282,7 +267,6 @@ def test_a_loop_match_closes_only_with_a_second_that_agrees():
     assert math.hypot(*graph.poses[40, :2]) < 0.1          # the square closed
     # without loop_confirm the wrong match alone would have closed it, 0.8 m off
     graph, _ = _square_with_turn_errors()
-    graph.cfg.wall_headings = False
     graph.cfg.confirm = False
     assert graph.propose_loop(0, 40, np.array([0.8, 0.0, 0.0]), w).status == "closed"
     assert math.hypot(*graph.poses[40, :2]) > 0.6

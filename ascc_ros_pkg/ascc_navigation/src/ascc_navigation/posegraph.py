@@ -55,6 +55,7 @@ from scipy.stats import chi2
 from ascc_common.params import param
 from ascc_common.pose2d import compose, relative, wrap_angle
 from ascc_navigation.laser import PreparedScan
+from ascc_navigation.wall_axes import wrap_right_angle
 
 
 @dataclass
@@ -694,7 +695,6 @@ class PoseGraph:
             walls = np.nonzero(np.isfinite(self.wall_axes[:n]))[0]
             walls = walls[walls > 0]
         wall_dir = self.wall_axes[walls] - self.wall_reference
-        quarter = 0.5 * math.pi
 
         def unpack(x):
             p = np.vstack([x_fixed, x.reshape(-1, 3)])
@@ -710,8 +710,7 @@ class PoseGraph:
             if walls.size == 0:
                 return r
             th = x.reshape(-1, 3)[walls - 1, 2] + wall_dir
-            return np.concatenate([r, ((th + quarter / 2.0) % quarter - quarter / 2.0)
-                                   / self.wall_std_rad])
+            return np.concatenate([r, wrap_right_angle(th) / self.wall_std_rad])
 
         def jacobian(x):
             _, _, c, s, dx, dy = unpack(x)
