@@ -33,19 +33,17 @@ def _config():
     params = {k: v for k, v in values.items() if k in known}
     params["particles"] = 10
     params["loop_closure"] = True
-    # The closure (opt-in, off by default) is checked with every third beam, as it was
-    # developed: with all beams (the shipped lskip 0) its first closure on this run raises
-    # the keyframes' mean error from 0.10 to 0.16 m, i.e. it does harm there, which
-    # docs/results/ascc_navigation.md reports as one reason the closure stays off.
+    # The closure (opt-in, off by default) with the wall-axis prior of config/gmapping.yaml,
+    # its heading measurements in the graph (loop_wall_headings), two agreeing matches
+    # (loop_confirm, opt-in) and the direct solve (loop_solver's default). With the trust
+    # region instead, Ubuntu 20.04's numpy and OpenCV made one closure double the keyframes'
+    # mean error (0.124 -> 0.254 m); without the prior the direct solve's minimum turns the
+    # loop's headings (0.19 -> 0.36 m): docs/results/ascc_navigation.md, "A direct solve
+    # for the graph".
+    params["loop_confirm"] = True
+    # Every third beam keeps the test near half a minute; with all beams (the shipped
+    # lskip 0) the same closures pass as well (0.336 -> 0.088 m, Debian 12's libraries).
     params["lskip"] = 2
-    # ... and without the wall-axis heading prior (on in config/gmapping.yaml since the
-    # closure was written). With it, its heading measurements in the graph
-    # (loop_wall_headings) and loop_confirm, this run's closures took the keyframes' mean
-    # error from 0.164 to 0.153 m with Debian 12's numpy and OpenCV, but with Ubuntu
-    # 20.04's the first closure raised it from 0.124 to 0.254 m (2026-11-30): the two
-    # together are not shown to work (docs/results/ascc_navigation.md, "Two loop matches
-    # that agree").
-    params["wall_axis_std_rad"] = -1.0
     return from_params(M.MapperConfig, params.get)
 
 
@@ -79,7 +77,7 @@ def test_corridor_loop_closes_within_the_bound():
     odom = S.wheel_odometry(traj, rng, robot["wheel_base_m"], robot["encoder_scale_sigma"],
                             robot["encoder_noise_m_per_sqrt_m"])
     cfg = _config()
-    assert cfg.loop.enabled
+    assert cfg.loop.enabled and cfg.loop.solver == "direct" and cfg.rbpf.wall_axis_std_rad > 0
     mapper = M.SlamMapper(cfg, seed=7)
     steps = _update_poses(traj, cfg.linear_update, cfg.angular_update)
     truth_kf, closed, before_after = [], [], []

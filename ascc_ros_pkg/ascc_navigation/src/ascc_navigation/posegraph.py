@@ -98,13 +98,14 @@ class LoopClosureConfig:
     # (docs/results/ascc_navigation.md). No effect with the prior off.
     wall_headings: bool = param(True, "keyframes where the wall-axis prior held keep its "
                                 "heading measurement in the graph", "loop_wall_headings")
-    # "trust_region": scipy's least_squares (trust region, LSMR), 20 evaluations for each
-    # loss; it stops before the minimum, ~0.8 s on the corridor's 820 keyframes.
     # "direct": Gauss-Newton on the sparse normal equations (SuperLU), to the minimum, tens
-    # of milliseconds (docs/results/ascc_navigation.md, "A direct solve for the graph").
-    solver: str = param("trust_region", "how the graph is optimised: trust_region "
-                        "(least_squares, stops after 20 evaluations) or direct (sparse "
-                        "Gauss-Newton to the minimum)", "loop_solver",
+    # of milliseconds on the corridor's 820 keyframes. "trust_region": scipy's least_squares
+    # (trust region, LSMR), 20 evaluations for each loss, ~0.5-0.8 s there; it stops before
+    # the minimum, which keeps the filter's shape where the graph's headings are loose
+    # (the prior off). docs/results/ascc_navigation.md, "A direct solve for the graph".
+    solver: str = param("direct", "how the graph is optimised: direct (sparse "
+                        "Gauss-Newton to the minimum) or trust_region (least_squares, "
+                        "stops after 20 evaluations)", "loop_solver",
                         choices=("trust_region", "direct"))
     # Front end and edge uncertainties (not ROS parameters).
     # sequential match: pull of the position to the odometry's (see correlative_match's
