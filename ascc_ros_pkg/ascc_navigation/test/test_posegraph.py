@@ -221,19 +221,19 @@ def _square_with_turn_errors():
 
 
 def test_wall_headings_hold_the_headings_while_a_loop_closes():
-    """Keyframes whose scans showed walls at right angles to the first scan's carry that
-    direction (robot frame) into the graph: the loop edge then moves positions, not
+    """Keyframes where the filter's wall-axis prior held carry the filter's heading there
+    into the graph (the walls held it: here the true heading, while the square's edges
+    turn 1 degree short at each corner): the loop edge then moves positions, not
     headings, and the square closes on the truth, not on a rotated copy of it."""
     plain, truth = _square_with_turn_errors()
     plain.cfg.wall_headings = False
     held, _ = _square_with_turn_errors()
-    # the walls lie along the map's axes (reference 0): seen from node k at its true heading
-    # they lie at -theta_k modulo a right angle; every other node saw them
-    walls = np.full(41, np.nan)
-    walls[::2] = -truth[::2, 2]
+    # every other node saw walls
+    headings = np.full(41, np.nan)
+    headings[::2] = truth[::2, 2]
     for graph in (plain, held):
-        graph.wall_axes = walls.copy()
-        graph.set_wall_axes(0.0, 0.01)
+        graph.headings = headings.copy()
+        graph.heading_std_rad = 0.01
         assert graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0])).status \
             == "closed"
     heading = {n: np.abs(P.wrap_angle(g.poses[:, 2] - truth[:, 2]))
@@ -256,10 +256,9 @@ def test_direct_solve_reaches_the_minimum(walls):
         graph, truth = _square_with_turn_errors()
         graph.cfg.solver = solver
         if walls:
-            axes = np.full(41, np.nan)
-            axes[::2] = -truth[::2, 2]
-            graph.wall_axes = axes
-            graph.set_wall_axes(0.0, 0.01)
+            graph.headings = np.full(41, np.nan)
+            graph.headings[::2] = truth[::2, 2]
+            graph.heading_std_rad = 0.01
         assert graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0])).status \
             == "closed"
         out[solver] = graph

@@ -148,6 +148,7 @@ class SlamMapper:
     def _reset_state(self) -> None:
         self.slam = RbpfSlam(self.cfg.rbpf, seed=self.seed)
         self.graph = PoseGraph(self.cfg.loop, hit_offset=0.5 * self.cfg.rbpf.delta)
+        self.graph.heading_std_rad = max(self.cfg.rbpf.wall_axis_std_rad, 0.0)
         self.keyframe_updates: List[int] = []  # the filter update of each keyframe
         self.graph.trajectory_source = self._keyframe_trajectory
         self.keyframe_odom: Optional[np.ndarray] = None  # odometry at the last keyframe
@@ -230,9 +231,8 @@ class SlamMapper:
                  else relative(self.keyframe_odom, odom_pose))
         self.keyframe_odom = odom_pose
         self.keyframe_updates.append(self.slam.updates - 1)
-        self.graph.set_wall_axes(self.slam.wall_reference, self.cfg.rbpf.wall_axis_std_rad)
         loop = self.graph.add_keyframe(self.slam.best_pose, prepared, delta,
-                                       stats.wall_axis if stats.wall_axis_used else None)
+                                       walls_held=stats.wall_axis_used)
         if loop.status == "closed":
             maps = rebuild_counts(self.slam.new_maps, self.graph.poses, self.graph.scans)
             self.slam.restart(self.graph.poses[-1], maps)

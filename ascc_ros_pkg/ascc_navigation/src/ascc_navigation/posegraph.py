@@ -29,8 +29,8 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   matches say the same; a wrong one, however confident, disagrees with the next);
 * **heading measurement** of node k (``loop_wall_headings``): where the filter's wall-axis
   prior held on scan k (its walls within the gate of the first scan's directions), the
-  residual wrap(theta_k + wall_k - reference) / ``wall_axis_std_rad``, wrapped to a right
-  angle: the closure then corrects positions, not the headings the walls fix.
+  filter's heading there, wrap(theta_k - heading_k) / ``wall_axis_std_rad``: the closure then
+  corrects positions, not the headings the walls held.
 
 With a new loop edge the graph is optimised (``scipy.optimize.least_squares``, sparse
 analytic Jacobian, quadratic then Huber loss on whitened residuals, node 0 fixed). If the
@@ -56,7 +56,6 @@ from scipy.stats import chi2
 from ascc_common.params import param
 from ascc_common.pose2d import compose, relative, wrap_angle
 from ascc_navigation.laser import PreparedScan
-from ascc_navigation.wall_axes import wrap_right_angle
 
 
 @dataclass
@@ -92,12 +91,16 @@ class LoopClosureConfig:
     # 1.1 cm (docs/results/ascc_navigation.md, "Two loop matches that agree").
     confirm: bool = param(False, "a loop match closes only with a second one that agrees "
                           "with it", "loop_confirm")
-    # The filter's wall-axis prior (rbpf's wall_axis_std_rad) measures the heading against
-    # the first scan's walls wherever it holds; without it in the graph a closure spreads
-    # its correction over the headings too, and turns sides that the prior had held
-    # (docs/results/ascc_navigation.md). No effect with the prior off.
-    wall_headings: bool = param(True, "keyframes where the wall-axis prior held keep its "
-                                "heading measurement in the graph", "loop_wall_headings")
+    # The filter's wall-axis prior (rbpf's wall_axis_std_rad) holds its heading to the first
+    # scan's walls wherever they show; without that in the graph a closure spreads its
+    # correction over the headings too, and turns sides that the prior had held. The graph
+    # takes the filter's own heading there, not the walls' direction: the filter's
+    # positions agree with its headings, and a graph turned onto the walls swings them
+    # (docs/results/ascc_navigation.md, "A direct solve for the graph"). No effect with the
+    # prior off.
+    wall_headings: bool = param(True, "keyframes where the wall-axis prior held keep the "
+                                "filter's heading there as a measurement in the graph",
+                                "loop_wall_headings")
     # "direct": Gauss-Newton on the sparse normal equations (SuperLU), to the minimum, tens
     # of milliseconds on the corridor's 820 keyframes. "trust_region": scipy's least_squares
     # (trust region, LSMR), 20 evaluations for each loss, ~0.5-0.8 s there; it stops before
@@ -385,11 +388,10 @@ class PoseGraph:
         self._odom_info = np.zeros((0, 3, 3))    # its information (previous node's frame)
         self._scan_info = np.zeros((0, 3, 3))    # each node's scan information (own frame)
         self._filter_edges: List[int] = []       # edges taken from the filter's increments
-        # per keyframe the scan's wall direction (robot frame) where the filter's wall-axis
-        # prior held, else NaN; with the reference and std of that prior (``set_wall_axes``)
-        self.wall_axes = np.zeros(0)
-        self.wall_reference: Optional[float] = None
-        self.wall_std_rad = 0.0
+        # per keyframe the filter's heading where its wall-axis prior held, else NaN; the
+        # std of that prior (the filter's wall_axis_std_rad; 0: no heading measurements)
+        self.headings = np.zeros(0)
+        self.heading_std_rad = 0.0
         # an accepted loop match waiting for a second one (``loop_confirm``):
         # (i, j, z, sqrt_info, where, score)
         self.pending: Optional[tuple] = None
@@ -402,15 +404,14 @@ class PoseGraph:
 
     # -- front end -------------------------------------------------------------------
     def add_keyframe(self, pose, scan: PreparedScan, odom_delta,
-                     wall_axis: Optional[float] = None) -> LoopResult:
+                     walls_held: bool = False) -> LoopResult:
         """Add the filter's pose ``pose`` (map frame) for ``scan``, taken after the odometry
         motion ``odom_delta`` (previous keyframe's robot frame); search for a loop if due.
-        ``wall_axis``: the scan's wall direction [rad, robot frame] if the filter's wall-axis
-        prior held on it (kept as a heading measurement with ``loop_wall_headings``)."""
+        ``walls_held``: the filter's wall-axis prior held on this scan, so its heading is
+        kept as a heading measurement (``loop_wall_headings``)."""
         cfg = self.cfg
         pose = np.asarray(pose, dtype=float)
-        self.wall_axes = np.append(self.wall_axes,
-                                   np.nan if wall_axis is None else float(wall_axis))
+        self.headings = np.append(self.headings, pose[2] if walls_held else np.nan)
         self.points.append(_surface_points(scan.origin, scan.hits, self.hit_offset))
         self.match_points.append(_surface_points(scan.origin, scan.match, self.hit_offset))
         scan = _compact(scan)
@@ -448,13 +449,6 @@ class PoseGraph:
         if not cfg.enabled or k == 0 or travelled < self._next_check_m:
             return LoopResult()
         return self._search_loop(k)
-
-    def set_wall_axes(self, reference: Optional[float], std_rad: float) -> None:
-        """The filter's wall-axis reference direction [rad, map frame, modulo a right angle]
-        and its prior's std: with ``loop_wall_headings`` each keyframe that carries a wall
-        direction adds the residual wrap(theta + wall - reference) / std to the graph."""
-        self.wall_reference = reference
-        self.wall_std_rad = std_rad
 
     def _odometry_information(self, odom_delta: np.ndarray) -> np.ndarray:
         """Information (previous keyframe's frame) of the odometry increment ``odom_delta``:
@@ -699,12 +693,11 @@ class PoseGraph:
         ww = np.array([_sqrt_info(e[3]) for e in self.edges])
         m = ii.size
         x_fixed = self.poses[0].copy()
-        walls = np.zeros(0, dtype=np.int64)
-        if (self.cfg.wall_headings and self.wall_reference is not None
-                and self.wall_std_rad > 0.0):
-            walls = np.nonzero(np.isfinite(self.wall_axes[:n]))[0]
-            walls = walls[walls > 0]
-        wall_dir = self.wall_axes[walls] - self.wall_reference
+        held = np.zeros(0, dtype=np.int64)
+        if self.cfg.wall_headings and self.heading_std_rad > 0.0:
+            held = np.nonzero(np.isfinite(self.headings[:n]))[0]
+            held = held[held > 0]
+        held_heading = self.headings[held]
 
         def unpack(x):
             p = np.vstack([x_fixed, x.reshape(-1, 3)])
@@ -717,10 +710,10 @@ class PoseGraph:
             e = np.column_stack([c * dx + s * dy - zz[:, 0], -s * dx + c * dy - zz[:, 1],
                                  wrap_angle(pj[:, 2] - pi[:, 2] - zz[:, 2])])
             r = np.einsum("mab,mb->ma", ww, e).ravel()
-            if walls.size == 0:
+            if held.size == 0:
                 return r
-            th = x.reshape(-1, 3)[walls - 1, 2] + wall_dir
-            return np.concatenate([r, wrap_right_angle(th) / self.wall_std_rad])
+            th = x.reshape(-1, 3)[held - 1, 2] - held_heading
+            return np.concatenate([r, wrap_angle(th) / self.heading_std_rad])
 
         def jacobian(x):
             _, _, c, s, dx, dy = unpack(x)
@@ -739,13 +732,13 @@ class PoseGraph:
                 rows.append(np.broadcast_to(r, d.shape)[keep])
                 cols.append(np.broadcast_to(col, d.shape)[keep])
                 vals.append(np.einsum("mab,mbc->mac", ww, d)[keep])
-            if walls.size:
-                rows.append(3 * m + np.arange(walls.size))
-                cols.append(3 * (walls - 1) + 2)
-                vals.append(np.full(walls.size, 1.0 / self.wall_std_rad))
+            if held.size:
+                rows.append(3 * m + np.arange(held.size))
+                cols.append(3 * (held - 1) + 2)
+                vals.append(np.full(held.size, 1.0 / self.heading_std_rad))
             return csr_matrix((np.concatenate(vals), (np.concatenate(rows),
                                                       np.concatenate(cols))),
-                              shape=(3 * m + walls.size, 3 * (n - 1)))
+                              shape=(3 * m + held.size, 3 * (n - 1)))
 
         x = self.poses[1:].ravel()
         if self.cfg.solver == "direct":
