@@ -32,8 +32,9 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   filter's heading there, wrap(theta_k - heading_k) / ``wall_axis_std_rad``: the closure then
   corrects positions, not the headings the walls held.
 
-With a new loop edge the graph is optimised (``scipy.optimize.least_squares``, sparse
-analytic Jacobian, quadratic then Huber loss on whitened residuals, node 0 fixed). If the
+With a new loop edge the graph is optimised (quadratic then Huber loss on whitened
+residuals, sparse analytic Jacobian, node 0 fixed; ``loop_solver``: Gauss-Newton on the
+sparse normal equations, or ``scipy.optimize.least_squares``' trust region). If the
 optimisation moves any node by more than ``max_correction_m`` the loop edge is removed and
 nothing changes (reported, so the node logs it); if it moves none by more than ``min_correction_m``
 the edge is kept but the map is left as is; otherwise the node poses are replaced and the
