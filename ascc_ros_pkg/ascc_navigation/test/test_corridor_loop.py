@@ -37,12 +37,12 @@ def _config():
     # its heading measurements in the graph (loop_wall_headings), two agreeing matches
     # (loop_confirm, opt-in) and the direct solve (loop_solver's default). With the trust
     # region instead, Ubuntu 20.04's numpy and OpenCV made one closure double the keyframes'
-    # mean error (0.124 -> 0.254 m); without the prior the direct solve's minimum turns the
+    # mean error (0.124 -> 0.264 m); without the prior the direct solve's minimum turns the
     # loop's headings (0.19 -> 0.36 m): docs/results/ascc_navigation.md, "A direct solve
     # for the graph".
     params["loop_confirm"] = True
     # Every third beam keeps the test near half a minute; with all beams (the shipped
-    # lskip 0) the same closures pass as well (0.336 -> 0.088 m, Debian 12's libraries).
+    # lskip 0) the closures pass as well (0.336 -> 0.130 m, Debian 12's libraries).
     params["lskip"] = 2
     return from_params(M.MapperConfig, params.get)
 
