@@ -220,6 +220,14 @@ def _square_with_turn_errors():
     return graph, np.array(truth)
 
 
+def _hold_headings(graph, truth):
+    """Every other node of the square saw walls: the filter's heading there (the walls held
+    it: the true heading) becomes a heading measurement with a 0.01 rad std."""
+    graph.headings = np.full(truth.shape[0], np.nan)
+    graph.headings[::2] = truth[::2, 2]
+    graph.heading_std_rad = 0.01
+
+
 def test_wall_headings_hold_the_headings_while_a_loop_closes():
     """Keyframes where the filter's wall-axis prior held carry the filter's heading there
     into the graph (the walls held it: here the true heading, while the square's edges
@@ -228,12 +236,8 @@ def test_wall_headings_hold_the_headings_while_a_loop_closes():
     plain, truth = _square_with_turn_errors()
     plain.cfg.wall_headings = False
     held, _ = _square_with_turn_errors()
-    # every other node saw walls
-    headings = np.full(41, np.nan)
-    headings[::2] = truth[::2, 2]
     for graph in (plain, held):
-        graph.headings = headings.copy()
-        graph.heading_std_rad = 0.01
+        _hold_headings(graph, truth)
         assert graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0])).status \
             == "closed"
     heading = {n: np.abs(P.wrap_angle(g.poses[:, 2] - truth[:, 2]))
@@ -256,9 +260,7 @@ def test_direct_solve_reaches_the_minimum(walls):
         graph, truth = _square_with_turn_errors()
         graph.cfg.solver = solver
         if walls:
-            graph.headings = np.full(41, np.nan)
-            graph.headings[::2] = truth[::2, 2]
-            graph.heading_std_rad = 0.01
+            _hold_headings(graph, truth)
         assert graph.close_loop(0, 40, np.zeros(3), np.array([20.0, 20.0, 50.0])).status \
             == "closed"
         out[solver] = graph

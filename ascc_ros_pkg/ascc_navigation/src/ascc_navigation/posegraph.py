@@ -620,8 +620,8 @@ class PoseGraph:
         # the cost of the two together above the cost of either alone: small if they say
         # the same, about their disagreement squared over the stds of the short paths
         # between their ends if not (however much a long loop could absorb of either)
-        both = self._cost_with([first, edge])
-        added = both - max(self._cost_with([first]), self._cost_with([edge]))
+        both, optimised = self._cost_with([first, edge])
+        added = both - max(self._cost_with([first])[0], self._cost_with([edge])[0])
         dof = min(np.linalg.matrix_rank(first[3]), np.linalg.matrix_rank(edge[3]))
         bound = chi2.ppf(math.erf(self.cfg.confirm_sigmas / math.sqrt(2.0)), dof)
         if added > bound:
@@ -630,18 +630,18 @@ class PoseGraph:
                               "the second waits for another" % (first[4], where, added, bound),
                               anchor=i, score=score)
         self.pending = None
-        return self._close([first, edge], "%s and %s" % (first[4], where), score)
+        return self._close([first, edge], "%s and %s" % (first[4], where), score, optimised)
 
-    def _cost_with(self, loops) -> float:
+    def _cost_with(self, loops) -> Tuple[float, np.ndarray]:
         """The graph's sum of squared whitened residuals, optimised with the given loop
-        edges added (and then removed again)."""
+        edges added (and then removed again), and the optimised node poses."""
         n_edges = len(self.edges)
         self.edges.extend((i, j, z, w) for i, j, z, w, _, _ in loops)
         try:
-            self.optimise()
+            optimised = self.optimise()
         finally:
             del self.edges[n_edges:]
-        return self.last_cost
+        return self.last_cost, optimised
 
     # -- back end --------------------------------------------------------------------
     def close_loop(self, i: int, j: int, z, sqrt_info, where: str = "",
@@ -653,14 +653,17 @@ class PoseGraph:
         return self._close([(i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where,
                              score)], where, score)
 
-    def _close(self, loops, where: str, score: float) -> LoopResult:
-        """Add the loop edges ``loops`` ((i, j, z, sqrt_info, where, score) each), optimise,
+    def _close(self, loops, where: str, score: float,
+               optimised: Optional[np.ndarray] = None) -> LoopResult:
+        """Add the loop edges ``loops`` ((i, j, z, sqrt_info, where, score) each), optimise
+        (unless ``optimised``, the poses ``_cost_with`` found with these edges, is given),
         and keep the result within the correction bounds."""
         cfg = self.cfg
         i = loops[0][0]
         n_edges = len(self.edges)
         self.edges.extend((a, b, z, w) for a, b, z, w, _, _ in loops)
-        optimised = self.optimise()
+        if optimised is None:
+            optimised = self.optimise()
         moved = np.hypot(optimised[:, 0] - self.poses[:, 0], optimised[:, 1] - self.poses[:, 1])
         correction = float(moved.max())
         if correction > cfg.max_correction_m:
