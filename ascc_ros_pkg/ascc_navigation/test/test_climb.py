@@ -9,6 +9,7 @@ import pytest
 
 from ascc_common.grid import OCCUPIED
 from ascc_navigation import climb as C
+from ascc_navigation import posegraph as P
 from ascc_navigation import rbpf as R
 from ascc_navigation import synthetic as S
 from ascc_navigation.laser import LaserMount, prepare_scan
@@ -172,6 +173,50 @@ def test_field_image_is_the_table_of_each_cells_counts(window):
     assert got.dtype == np.uint8 and got.shape == want.shape
     np.testing.assert_array_equal(got, want)
     assert (want[:, :y1 - y0] == 0).any() and (want[:, :y1 - y0] == 255).any()
+
+
+@pytest.fixture(scope="module")
+def loop_field():
+    """The loop closure's likelihood field of the office scans at two poses, and the end
+    points of a scan 0.4 m on (posegraph's correlative matcher)."""
+    a, b = np.array([4.0, 1.8, 0.1]), np.array([4.4, 1.9, 0.15])
+    cloud = np.vstack([P._transform(p, _scan(p).hits) for p in (a, b)])
+    field = P.LikelihoodField(cloud, 0.02, 1.0, 0.15)
+    return field, _scan(np.array([4.8, 2.0, 0.3])).match
+
+
+def test_pose_scores_are_the_bilinear_lookups_scores(loop_field):
+    """posegraph's refinement scores, compiled, against the numpy lookups they replace
+    (``LikelihoodField.distances``), also for poses off the field (clamped) and NaN."""
+    field, pts = loop_field
+    rng = np.random.default_rng(2)
+    cand = np.array([4.8, 2.0, 0.3]) + rng.uniform([-0.3, -0.3, -0.1], [0.3, 0.3, 0.1],
+                                                   (40, 3))
+    cand[0] = [-20.0, 30.0, 1.0]  # every end point off the field
+    c, s = np.cos(cand[:, 2])[:, None], np.sin(cand[:, 2])[:, None]
+    d = field.distances(cand[:, 0:1] + c * pts[:, 0] - s * pts[:, 1],
+                        cand[:, 1:2] + s * pts[:, 0] + c * pts[:, 1])
+    want = np.exp(-0.5 * (d / 0.05) ** 2).mean(axis=1)
+    got = C.pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, 0.05)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    assert want.max() > 0.5 and want.min() < 0.1  # the poses span good and poor matches
+    nan = C.pose_scores(field.dist, field.x0, field.y0, field.res,
+                        np.array([[math.nan, 2.0, 0.3]]), pts, 0.05)
+    assert np.isfinite(nan).all()
+
+
+def test_grid_scores_are_the_gathered_means():
+    """posegraph's coarse correlative search, compiled, against numpy's gather per heading
+    (float32 means; the sums are float64 now, so they agree to float32's precision)."""
+    rng = np.random.default_rng(3)
+    lut = rng.random(40 * 50).astype(np.float32)
+    shift = (np.arange(-3, 4)[:, None] * 50 + np.arange(-3, 4)[None, :]).ravel()
+    base = rng.integers(3 * 50 + 3, 36 * 50 - 3, (5, 200))
+    want = np.stack([lut.take(base[t][None, :] + shift[:, None]).mean(axis=1)
+                     for t in range(5)])
+    got = C.grid_scores(lut, base, shift)
+    assert got.dtype == np.float32 and got.shape == (5, shift.size)
+    np.testing.assert_allclose(got, want, rtol=2e-6)
 
 
 def test_warm_up_runs_the_kernels():

@@ -17,6 +17,12 @@ at a time and the six moves in one pass over the end points: no (particles x mov
 beams) arrays, no Python between the moves: 36-47 % less CPU per filter update. What
 can differ is the summation order over the beams and the exponential's last bit (numpy's
 vectorised exp against the C library's): the scores agree to ~1e-12 (test_climb.py).
+
+The loop closure's correlative matcher (``posegraph.correlative_match``) has two kernels
+here too: the coarse grid's mean scores (``grid_scores``) and the refinement's bilinear
+scores (``pose_scores``), each one pass over the end points per candidate instead of
+numpy's (candidates x points) arrays: a sequential or loop match takes a quarter of the
+time it did, with the same result.
 No ROS imports.
 """
 
@@ -222,6 +228,87 @@ def geometry(fields, sigma: float) -> tuple:
             float(np.float32(-0.5 / sigma ** 2)))
 
 
+@njit(cache=True, nogil=True)
+def _grid_scores(lut, base, shift, out):
+    """out[t, j] = mean over m of lut[base[t, m] + shift[j]] (float64 sums)."""
+    n = base.shape[1]
+    for t in range(base.shape[0]):
+        for j in range(shift.size):
+            off = shift[j]
+            total = 0.0
+            for m in range(n):
+                total += lut[base[t, m] + off]
+            out[t, j] = total / n
+
+
+def grid_scores(lut: np.ndarray, base: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """The loop closure's coarse correlative search (``posegraph.correlative_match``): the
+    mean of the flat score table ``lut`` (float32) at the end points' flat indices ``base``
+    (T headings, M points) shifted by each of the flat offsets ``shift`` (S,), as (T, S)
+    float32, without numpy's (S, M) gather per heading."""
+    base = np.ascontiguousarray(base, dtype=np.int64)
+    out = np.empty((base.shape[0], shift.size), np.float32)
+    _grid_scores(np.ascontiguousarray(lut, dtype=np.float32).ravel(), base,
+                 np.ascontiguousarray(shift, dtype=np.int64), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _pose_scores(dist, x0, y0, res, cand, px, py, sigma, out):
+    """Bilinear match scores of the points (px, py; base frame [m]) at each candidate pose
+    (rows of ``cand``) in the distance image ``dist`` (h, w) whose cell (0, 0) has its
+    corner at (x0, y0): as ``posegraph.LikelihoodField.distances`` (cell centres, clamped
+    to the image) and exp(-d^2 / 2 sigma^2), averaged over the points."""
+    max_u = dist.shape[1] - 1.001
+    max_v = dist.shape[0] - 1.001
+    inv_res = 1.0 / res
+    k2 = -0.5 / (sigma * sigma)
+    n = px.size
+    for k in range(cand.shape[0]):
+        c = math.cos(cand[k, 2])
+        s = math.sin(cand[k, 2])
+        u0 = (cand[k, 0] - x0) * inv_res - 0.5
+        v0 = (cand[k, 1] - y0) * inv_res - 0.5
+        cu = c * inv_res
+        su = s * inv_res
+        total = 0.0
+        for m in range(n):
+            u = u0 + (cu * px[m] - su * py[m])
+            v = v0 + (su * px[m] + cu * py[m])
+            if not u >= 0.0:  # NaN too: numba does not check the index
+                u = 0.0
+            elif u > max_u:
+                u = max_u
+            if not v >= 0.0:
+                v = 0.0
+            elif v > max_v:
+                v = max_v
+            iu = int(u)
+            iv = int(v)
+            fu = u - iu
+            fv = v - iv
+            d00 = dist[iv, iu]
+            d10 = dist[iv + 1, iu]
+            top = d00 + fu * (dist[iv, iu + 1] - d00)
+            bottom = d10 + fu * (dist[iv + 1, iu + 1] - d10)
+            d = top + fv * (bottom - top)
+            total += math.exp(k2 * (d * d))
+        out[k] = total / n
+
+
+def pose_scores(dist: np.ndarray, x0: float, y0: float, res: float, cand: np.ndarray,
+                pts: np.ndarray, sigma: float) -> np.ndarray:
+    """The loop closure's refinement scores (``posegraph._refine``) of the base-frame points
+    ``pts`` (M, 2) at the poses ``cand`` (K, 3), one pass per pose, no (K, M) arrays."""
+    pts = np.asarray(pts, dtype=np.float64)
+    out = np.empty(cand.shape[0])
+    _pose_scores(np.ascontiguousarray(dist, dtype=np.float32), float(x0), float(y0),
+                 float(res), np.ascontiguousarray(cand, dtype=np.float64),
+                 np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
+                 float(sigma), out)
+    return out
+
+
 def end_points(pts: np.ndarray, res: float) -> Tuple[np.ndarray, np.ndarray]:
     """End points (M, 2, base frame [m]) in cells, float32, as ``rotated`` has them."""
     inv = np.float32(1.0 / res)
@@ -261,4 +348,7 @@ def warm_up() -> float:
                              origin_x=0.0, origin_y=0.0)
     hill_climb(fields, np.array([[0.15, 0.2]]), np.ones(3), np.zeros((1, 3)),
                np.zeros(1, np.int64), 0.05, 0.05, 1, 0.05, 2)
+    grid_scores(np.zeros(64, np.float32), np.zeros((1, 2), np.int64), np.zeros(3, np.int64))
+    pose_scores(np.zeros((8, 8), np.float32), 0.0, 0.0, 0.05, np.zeros((2, 3)),
+                np.zeros((3, 2)), 0.05)
     return time.process_time() - t0

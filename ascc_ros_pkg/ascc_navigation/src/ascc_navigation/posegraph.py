@@ -16,12 +16,13 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   more than ``min_travel_m`` back along the path, scan k is matched against a submap of those
   old keyframes' scans at their node poses: a correlative search (likelihood field from
   ``cv2.distanceTransform``, every (dx, dy, dtheta) of a grid scored at once) refined on a
-  finer grid with bilinear lookups. It is accepted only if the matched share of the beams
-  reaches ``min_score`` and the match is determined: the candidates' score-weighted
-  covariance gives each position axis a std; axes above ``max_spread_m`` are left free
-  (a featureless corridor fixes the lateral position and the heading, not the position
-  along it), and a match with no fixed axis, or a heading std above ``max_spread_rad``,
-  is rejected.
+  finer grid with bilinear lookups (both compiled: ``climb.grid_scores``,
+  ``pose_scores``). It is accepted only if the matched share of the beams reaches
+  ``min_score`` and the match is determined: the candidates' score-weighted covariance
+  gives each position axis a std; axes above ``max_spread_m`` are left free (a
+  featureless corridor fixes the lateral position and the heading, not the position along
+  it), and a match with no fixed axis, or a heading std above ``max_spread_rad``, is
+  rejected.
 
 * **confirmation** (``loop_confirm``): an accepted match waits for the next accepted one;
   the two are added only if, optimised together, they cost the graph no more squared
@@ -56,6 +57,7 @@ from scipy.stats import chi2
 
 from ascc_common.params import param
 from ascc_common.pose2d import compose, relative, wrap_angle
+from ascc_navigation.climb import grid_scores, pose_scores
 from ascc_navigation.laser import PreparedScan
 
 
@@ -191,7 +193,9 @@ class LikelihoodField:
         self.dist = dist
 
     def distances(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Bilinear distance [m] at world points (any shape); off-window points clamp."""
+        """Bilinear distance [m] at world points (any shape); off-window points clamp. (The
+    matcher scores with the compiled ``climb.pose_scores``, which test_climb.py checks
+    against this.)"""
         u = np.clip((x - self.x0) / self.res - 0.5, 0.0, self.w - 1.001)
         v = np.clip((y - self.y0) / self.res - 0.5, 0.0, self.h - 1.001)
         iu = u.astype(np.int64)
@@ -254,9 +258,7 @@ def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray
     base = iy * wp + ix  # (T, M)
     shift = (offs[:, None] * wp + offs[None, :]).ravel()  # (dy, dx) flattened: (K*K,)
     flat = lut.ravel()
-    scores = np.empty((thetas.size, shift.size), dtype=np.float32)
-    for t in range(thetas.size):  # one gather of (K*K, M) per heading
-        scores[t] = flat.take(base[t][None, :] + shift[:, None]).mean(axis=1)
+    scores = grid_scores(flat, base, shift)  # (T, K*K)
     objective = scores
     if prior is not None:
         dxy = (offs * res) ** 2
@@ -296,12 +298,7 @@ def _refine(field: LikelihoodField, pts: np.ndarray, start: np.ndarray, step_m: 
         o = np.arange(-3, 4)
         dx, dy, dt = np.meshgrid(o * sm, o * sm, o * sr, indexing="ij")
         cand = best + np.column_stack([dx.ravel(), dy.ravel(), dt.ravel()])
-        c = np.cos(cand[:, 2])[:, None]
-        s = np.sin(cand[:, 2])[:, None]
-        x = cand[:, 0:1] + c * pts[:, 0] - s * pts[:, 1]
-        y = cand[:, 1:2] + s * pts[:, 0] + c * pts[:, 1]
-        d = field.distances(x, y)
-        sc = np.exp(-0.5 * (d / sigma) ** 2).mean(axis=1)
+        sc = pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, sigma)
         obj = sc if prior is None else sc - ((cand - guess) ** 2 * prior).sum(axis=1)
         j = int(np.argmax(obj))
         best = cand[j]
