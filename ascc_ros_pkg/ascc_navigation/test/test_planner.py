@@ -331,9 +331,29 @@ def test_windowed_search_gives_the_whole_grid_plan(world, office):
 
 def _first_window(costmap, start, goal):
     rows, cols = costmap.shape
-    m = max(pln.WINDOW_MARGIN, max(abs(start[0] - goal[0]), abs(start[1] - goal[1])) // 2)
+    m = pln.WINDOW_MARGIN
     return (max(min(start[0], goal[0]) - m, 0), min(max(start[0], goal[0]) + m + 1, rows),
             max(min(start[1], goal[1]) - m, 0), min(max(start[1], goal[1]) + m + 1, cols))
+
+
+def test_a_goal_far_along_a_corridor_is_searched_near_the_corridor():
+    """A goal 42 m along a straight corridor in a wide map (the corridor world's last goal
+    of an exploration): the window stays a few metres round the corridor instead of
+    spanning the map, and the plan is the whole grid's."""
+    grid = np.full((400, 1000), OCCUPIED, dtype=np.int8)  # 20 m x 50 m at 0.05 m
+    grid[195:243, 20:980] = FREE  # a 2.4 m wide corridor, 48 m long
+    grid[150:195, 600:640] = FREE  # a side room off it
+    info = GridInfo(0.05, 1000, 400)
+    costmap = pln.Costmap(grid, info, pln.PlannerParams())
+    start_xy, goal_xy = (2.5, 10.9), (44.5, 11.2)
+    start, goal = costmap.to_cell(start_xy), costmap.to_cell(goal_xy)
+    dist, window, (r0, c0), _ = pln.windowed_cost_to_goal(costmap, start, goal)
+    assert window.lethal.shape[0] * costmap.resolution <= 8.0  # rows: not the map's 20 m
+    cells, cost = _plan_on_whole_grid(costmap, start_xy, goal_xy)
+    assert int(dist[start[0] - r0, start[1] - c0]) == cost
+    got = pln.descend(dist, window, (start[0] - r0, start[1] - c0),
+                      (goal[0] - r0, goal[1] - c0)) + (r0, c0)
+    assert np.array_equal(got, cells)
 
 
 def test_a_detour_outside_the_first_window_is_found():

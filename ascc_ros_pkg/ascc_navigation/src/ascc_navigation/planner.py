@@ -420,14 +420,17 @@ def windowed_cost_to_goal(costmap: Costmap, start: Tuple[int, int], goal: Tuple[
                           max_rounds: int = 400, margin: int = WINDOW_MARGIN):
     """``cost_to_goal`` in a window round start and goal, grown until it is exact.
 
-    The window is the box of start and goal grown by ``margin`` cells (at least half their
-    distance); the start's cost-to-goal found inside it is the true one, and so is the
-    path ``descend`` reads off, when it is lower than ``_exit_bound`` (every walk that
-    leaves the window costs at least that): no cell the descent compares can then be
-    reached more cheaply from outside. Else the margin is doubled, up to the whole grid.
+    The window is the box of start and goal grown by ``margin`` cells; the start's
+    cost-to-goal found inside it is the true one, and so is the path ``descend`` reads off,
+    when it is lower than ``_exit_bound`` (every walk that leaves the window costs at least
+    that): no cell the descent compares can then be reached more cheaply from outside.
+    Else the margin is doubled, up to the whole grid. The first margin is small whatever
+    the distance: a margin of half the distance (before) made the first window of a goal
+    42 m along a corridor span the whole 37 m wide map, for a path that needs a few metres
+    (docs/results/ascc_navigation.md, "CPU (navigator)").
     Returns (cost-to-goal of the window, its window, (r0, c0), rounds in all)."""
     rows, cols = costmap.shape
-    margin = max(int(margin), max(abs(start[0] - goal[0]), abs(start[1] - goal[1])) // 2)
+    margin = int(margin)
     total = 0
     while True:
         r0, r1 = max(min(start[0], goal[0]) - margin, 0), \
