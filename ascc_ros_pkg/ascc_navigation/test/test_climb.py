@@ -175,6 +175,19 @@ def test_field_image_is_the_table_of_each_cells_counts(window):
     assert (want[:, :y1 - y0] == 0).any() and (want[:, :y1 - y0] == 255).any()
 
 
+def _bilinear_distances(field, x, y):
+    """The numpy lookups the refinement used before ``pose_scores``: bilinear distance [m]
+    at world points (cell centres; off-field points clamp)."""
+    u = np.clip((x - field.x0) / field.res - 0.5, 0.0, field.w - 1.001)
+    v = np.clip((y - field.y0) / field.res - 0.5, 0.0, field.h - 1.001)
+    iu, iv = u.astype(np.int64), v.astype(np.int64)
+    fu, fv = u - iu, v - iv
+    d = field.dist
+    top = d[iv, iu] + fu * (d[iv, iu + 1] - d[iv, iu])
+    bottom = d[iv + 1, iu] + fu * (d[iv + 1, iu + 1] - d[iv + 1, iu])
+    return top + fv * (bottom - top)
+
+
 @pytest.fixture(scope="module")
 def loop_field():
     """The loop closure's likelihood field of the office scans at two poses, and the end
@@ -187,14 +200,14 @@ def loop_field():
 
 def test_pose_scores_are_the_bilinear_lookups_scores(loop_field):
     """posegraph's refinement scores, compiled, against the numpy lookups they replace
-    (``LikelihoodField.distances``), also for poses off the field (clamped) and NaN."""
+    (``_bilinear_distances``), also for poses off the field (clamped) and NaN."""
     field, pts = loop_field
     rng = np.random.default_rng(2)
     cand = np.array([4.8, 2.0, 0.3]) + rng.uniform([-0.3, -0.3, -0.1], [0.3, 0.3, 0.1],
                                                    (40, 3))
     cand[0] = [-20.0, 30.0, 1.0]  # every end point off the field
     c, s = np.cos(cand[:, 2])[:, None], np.sin(cand[:, 2])[:, None]
-    d = field.distances(cand[:, 0:1] + c * pts[:, 0] - s * pts[:, 1],
+    d = _bilinear_distances(field, cand[:, 0:1] + c * pts[:, 0] - s * pts[:, 1],
                         cand[:, 1:2] + s * pts[:, 0] + c * pts[:, 1])
     want = np.exp(-0.5 * (d / 0.05) ** 2).mean(axis=1)
     got = C.pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, 0.05)

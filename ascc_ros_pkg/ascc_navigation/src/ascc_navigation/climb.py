@@ -257,8 +257,8 @@ def grid_scores(lut: np.ndarray, base: np.ndarray, shift: np.ndarray) -> np.ndar
 def _pose_scores(dist, x0, y0, res, cand, px, py, sigma, out):
     """Bilinear match scores of the points (px, py; base frame [m]) at each candidate pose
     (rows of ``cand``) in the distance image ``dist`` (h, w) whose cell (0, 0) has its
-    corner at (x0, y0): as ``posegraph.LikelihoodField.distances`` (cell centres, clamped
-    to the image) and exp(-d^2 / 2 sigma^2), averaged over the points."""
+    corner at (x0, y0): the distance interpolated between cell centres (clamped to the
+    image), then exp(-d^2 / 2 sigma^2), averaged over the points."""
     max_u = dist.shape[1] - 1.001
     max_v = dist.shape[0] - 1.001
     inv_res = 1.0 / res

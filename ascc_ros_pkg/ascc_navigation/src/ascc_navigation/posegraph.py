@@ -174,7 +174,7 @@ class LoopResult:
 class LikelihoodField:
     """Distance [m] from each cell of a window to the nearest end point of a set of points
     (world frame), capped; scored by nearest-cell gathers (coarse search) or bilinear
-    interpolation (refinement)."""
+    interpolation (refinement), both in ``climb`` (``grid_scores``, ``pose_scores``)."""
 
     def __init__(self, points: np.ndarray, resolution: float, margin_m: float, cap_m: float):
         self.res = float(resolution)
@@ -191,21 +191,6 @@ class LikelihoodField:
         dist *= np.float32(self.res)
         np.minimum(dist, np.float32(cap_m), out=dist)
         self.dist = dist
-
-    def distances(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Bilinear distance [m] at world points (any shape); off-window points clamp. (The
-    matcher scores with the compiled ``climb.pose_scores``, which test_climb.py checks
-    against this.)"""
-        u = np.clip((x - self.x0) / self.res - 0.5, 0.0, self.w - 1.001)
-        v = np.clip((y - self.y0) / self.res - 0.5, 0.0, self.h - 1.001)
-        iu = u.astype(np.int64)
-        iv = v.astype(np.int64)
-        fu = u - iu
-        fv = v - iv
-        d = self.dist
-        top = d[iv, iu] + fu * (d[iv, iu + 1] - d[iv, iu])
-        bottom = d[iv + 1, iu] + fu * (d[iv + 1, iu + 1] - d[iv + 1, iu])
-        return top + fv * (bottom - top)
 
 
 def _transform(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
