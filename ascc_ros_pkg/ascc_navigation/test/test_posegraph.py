@@ -298,6 +298,28 @@ def test_a_loop_match_closes_only_with_a_second_that_agrees():
     assert math.hypot(*graph.poses[40, :2]) > 0.6
 
 
+def test_a_pair_closes_only_the_axes_both_matches_fix():
+    """``loop_confirm`` with a first match that fixes both position axes, 0.8 m wrong along
+    the square's first side (as a corridor match can be while claiming an 11 cm std), and a
+    right second one that leaves that axis free (a corridor's match often does): the
+    second cannot disagree along it, so the first's information along it is dropped and
+    the pair closes across it and in heading only. Before, the pair closed with the wrong
+    0.8 m (node 40 ended 0.8 m along the first side)."""
+    graph, truth = _square_with_turn_errors()
+    graph.cfg.confirm = True
+    assert graph.propose_loop(0, 40, np.array([0.8, 0.0, 0.0]), np.array([20.0, 20.0, 50.0]),
+                              "wrong along").status == "pending"
+    r = graph.propose_loop(1, 40, P.relative(truth[1], truth[40]), np.array([0.0, 20.0, 50.0]),
+                           "right, along free")
+    assert r.status == "closed", r.reason
+    first, second = graph.edges[-2], graph.edges[-1]
+    assert (first[0], second[0]) == (0, 1)
+    np.testing.assert_allclose(first[3][:, 0], 0.0, atol=1e-9)  # no information along x
+    np.testing.assert_allclose(np.abs(first[3][1:, 1:]), [[20.0, 0.0], [0.0, 50.0]],
+                               atol=1e-9)  # the rest kept
+    assert math.hypot(*graph.poses[40, :2]) < 0.1  # the square closed, not 0.8 m off
+
+
 def test_mapper_closes_the_office_loop_and_keeps_tf_consistent():
     """The node's core with loop closure on, drifting odometry: the loop is
     found, the map agrees with the truth, and map -> odom -> base is the corrected pose."""

@@ -590,7 +590,10 @@ class PoseGraph:
         graph than a chi-square at ``confirm_sigmas`` above either alone. A pair that
         disagrees is dropped but for the newer match, which waits for the next. (A match
         can be wrong and still pass the score and spread tests: along a corridor a match
-        0.8 m off claimed an 8 cm std.)"""
+        0.8 m off claimed an 8 cm std.) Each of the two keeps its position information
+        only in the directions the other also fixes (``_confirmed_axes``): a match that
+        fixes the position along a corridor, beside one that leaves it free, is confirmed
+        across the corridor only, and closes only that."""
         where = where or "keyframes %d -> %d" % (i, j)
         edge = (i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where, score)
         if not self.cfg.confirm:
@@ -599,6 +602,7 @@ class PoseGraph:
         if first is None:
             return LoopResult("pending", "loop match with %s (score %.2f) waits for a second "
                               "one to agree" % (where, score), anchor=i, score=score)
+        first, edge = self._confirmed_axes(first, edge), self._confirmed_axes(edge, first)
         # the cost of the two together above the cost of either alone: small if they say
         # the same, about their disagreement squared over the stds of the short paths
         # between their ends if not (however much a long loop could absorb of either)
@@ -613,6 +617,26 @@ class PoseGraph:
                               anchor=i, score=score)
         self.pending = None
         return self._close([first, edge], "%s and %s" % (first[4], where), score, optimised)
+
+    def _confirmed_axes(self, edge, other):
+        """``edge`` (i, j, z, sqrt_info, where, score) with its position information kept
+        only in the directions (map frame) where ``other``'s is not zero: its square-root
+        information times the projection onto them, in edge's anchor frame. Both fix
+        both axes: unchanged."""
+        def position_info(e):
+            c, s = math.cos(self.poses[e[0], 2]), math.sin(self.poses[e[0], 2])
+            rot = np.array([[c, -s], [s, c]])  # anchor frame -> map frame
+            w = e[3][:, :2] @ rot.T
+            return w.T @ w, rot
+        info_other, _ = position_info(other)
+        eig, axes = np.linalg.eigh(info_other)
+        fixed = axes[:, eig > 1e-9 * max(float(eig.max()), 1e-300)]
+        if fixed.shape[1] == 2:
+            return edge
+        _, rot = position_info(edge)
+        proj = np.eye(3)
+        proj[:2, :2] = rot.T @ (fixed @ fixed.T) @ rot  # onto other's fixed directions
+        return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5])
 
     def _cost_with(self, loops) -> Tuple[float, np.ndarray]:
         """The graph's sum of squared whitened residuals, optimised with the given loop
