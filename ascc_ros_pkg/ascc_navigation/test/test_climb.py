@@ -1,5 +1,6 @@
 """The compiled kernels (climb.py) against the numpy code they replace: the hill climb's
-scores and, step by step, the same search as rbpf's numpy search before it; the distance
+scores (within the score table's bound) and, step by step, the same search as rbpf's
+numpy search before it; the score table against the exponential; the distance
 transform's input image."""
 
 import math
@@ -51,6 +52,31 @@ def filled():
     return cfg, slam._fields(pts), pts, pose
 
 
+def _table_bound(sigma, radius):
+    """The score table's error bound per beam: h^2 / 8 times the largest |f''| of
+    f(d) = exp(-d^2 / (2 sigma^2)), which is 1 / sigma^2 (at d = 0)."""
+    h = radius / C.TABLE_SIZE
+    return h * h / (8.0 * sigma * sigma)
+
+
+@pytest.mark.parametrize("sigma, radius", [(0.05, 0.15), (0.02, 0.1), (0.1, 0.3)])
+def test_the_score_table_is_the_exponential_within_its_bound(sigma, radius):
+    """Every distance the fields can hold, [0, radius] and float rounding past it: the
+    table's value within its bound of exp(-d^2 / (2 sigma^2)), exact at its entries."""
+    table, inv_h = C.score_table(radius, sigma)
+    d = np.concatenate([np.linspace(0.0, radius, 100003), [radius * (1 + 1e-7), -1e-12]])
+    got = np.array([C._kernel(table, inv_h, C.TABLE_SIZE, x) for x in d])
+    want = np.exp(d * d * np.float32(-0.5 / sigma ** 2))
+    err = np.abs(got - want)
+    bound = _table_bound(sigma, radius)
+    assert err.max() <= bound * (1 + 1e-6) + 1e-15
+    assert err.max() > 0.5 * bound  # the bound is what the table does, not far above
+    at = np.arange(C.TABLE_SIZE + 1) * (radius / C.TABLE_SIZE)
+    np.testing.assert_allclose([C._kernel(table, inv_h, C.TABLE_SIZE, x) for x in at[::97]],
+                               np.exp(at[::97] ** 2 * np.float32(-0.5 / sigma ** 2)),
+                               rtol=1e-12)
+
+
 def _starts(pose, n, seed):
     rng = np.random.default_rng(seed)
     return pose + rng.uniform([-0.1, -0.1, -0.06], [0.1, 0.1, 0.06], (n, 3))
@@ -67,13 +93,15 @@ def test_compiled_score_is_the_numpy_lookups_score(filled):
     got = np.array([C._score(g, int(p) * fields.band * fields.w, x, y, t, mx, my)
                     for (x, y, t), p in zip(starts, particles)])
     assert want.min() > 0.2 * pts.shape[0]  # the poses are near: most beams count
-    np.testing.assert_allclose(got, want, rtol=1e-12)
+    atol = pts.shape[0] * _table_bound(cfg.sigma, fields.radius)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=atol)
+    assert np.abs(got - want).max() > 1e-9  # the table, not the C library's exp
     # a pose far outside the window clamps to its border, as numpy's clip
     far = np.array([[pose[0] + 30.0, pose[1] - 20.0, 1.0]])
     want_far = fields.match_score(fields.distances(far[:, None, :], np.array([2]), pts),
                                   cfg.sigma)[0, 0]
     got_far = C._score(g, 2 * fields.band * fields.w, *far[0], mx, my)
-    np.testing.assert_allclose(got_far, want_far, rtol=1e-12)
+    np.testing.assert_allclose(got_far, want_far, rtol=1e-12, atol=atol)
 
 
 def test_six_moves_in_one_pass_score_as_six_poses(filled):
@@ -138,7 +166,8 @@ def test_compiled_climb_takes_the_numpy_searchs_steps(filled, prior, along):
     moved = np.abs(want_pose - starts).max(axis=1)
     assert (moved > 0.02).sum() >= 10  # the searches went somewhere
     np.testing.assert_allclose(got_pose, want_pose, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(got_score, want_score, rtol=1e-12)
+    np.testing.assert_allclose(got_score, want_score, rtol=1e-12,
+                               atol=pts.shape[0] * _table_bound(cfg.sigma, fields.radius))
 
 
 def test_a_pose_that_is_not_a_number_stays_inside_the_fields(filled):

@@ -3,7 +3,8 @@
 node's core (``SlamMapper``, config/gmapping.yaml but 10 particles to keep the test short
 and every third beam, see ``_config``) is fed with scans of ascc_sim's URG-04LX model and
 odometry of its wheel-encoder error model, one scan per filter update (about 1000 updates;
-35 s alone, up to 120 s under load)."""
+10-35 s per seed alone, up to 120 s under load). Three seeds: 7, and 1 and 4, on which
+a wrong along-corridor match closed the loop before 2026-12-01 (see the test)."""
 
 import math
 import os
@@ -60,7 +61,8 @@ def _update_poses(traj, linear, angular):
     return np.array(keep)
 
 
-def test_corridor_loop_closes_within_the_bound():
+@pytest.mark.parametrize("seed", [7, 1, 4])
+def test_corridor_loop_closes_within_the_bound(seed):
     pytest.importorskip("ascc_sim")
     from ascc_sim.laser import LaserConfig, LaserModel
     from ascc_sim.world import load_world
@@ -72,13 +74,13 @@ def test_corridor_loop_closes_within_the_bound():
                        math.radians(robot["laser_yaw_deg"]))
     laser_cfg = LaserConfig()
     laser = LaserModel(world.grid, laser_cfg, world.dropout)
-    rng = np.random.default_rng(7)
+    rng = np.random.default_rng(seed)
     traj = S.waypoint_trajectory(ROUTE, v=0.3, w=0.8, dt=0.1)
     odom = S.wheel_odometry(traj, rng, robot["wheel_base_m"], robot["encoder_scale_sigma"],
                             robot["encoder_noise_m_per_sqrt_m"])
     cfg = _config()
     assert cfg.loop.enabled and cfg.loop.solver == "direct" and cfg.rbpf.wall_axis_std_rad > 0
-    mapper = M.SlamMapper(cfg, seed=7)
+    mapper = M.SlamMapper(cfg, seed=seed)
     steps = _update_poses(traj, cfg.linear_update, cfg.angular_update)
     truth_kf, closed, before_after = [], [], []
     n_beams = laser_cfg.n_beams
@@ -102,12 +104,16 @@ def test_corridor_loop_closes_within_the_bound():
             before_after.append((old.mean(), err[:-1].mean()))
     assert closed, "the corridor loop did not close"
     # every applied closure stayed within the bound and did no harm: the trajectory
-    # (keyframes vs the truth) no worse than before it by more than 1 cm. On this corridor
-    # the filter itself keeps the loop's error at 0.1-0.2 m (with the library versions),
-    # and each closure moves it by millimetres, either way; that a closure removes a known
-    # drift is test_posegraph.py's test (0.318 -> 0.105 m mean).
+    # (keyframes vs the truth) no worse than before it by more than 5 cm. The filter
+    # itself keeps this loop's error at 0.1-0.3 m. A right closure spreads the end's
+    # error along the corridor over the loop's legs, which no corridor match tells apart,
+    # and added up to 3 cm to the mean on seeds 1-10; a wrong match along the corridor,
+    # confirmed by a second match that left that axis free, added 15-37 cm on seeds 1, 4
+    # and 6 before each match of a pair kept only the axes both fix (2026-12-01). (This
+    # test ran seed 7 alone then, with a 1 cm bound, which that seed's closures kept.)
+    # That a closure removes a known drift is test_posegraph.py's test (0.318 -> 0.105 m).
     assert all(r.correction_m <= cfg.loop.max_correction_m for r in closed)
-    assert all(after <= before + 0.01 for before, after in before_after), before_after
+    assert all(after <= before + 0.05 for before, after in before_after), before_after
     # the loop's end: map -> odom -> base near the truth, map close to the floor plan
     end = compose(mapper.map_to_odom(), odom[steps[-1]])
     assert math.hypot(end[0] - traj[steps[-1], 0], end[1] - traj[steps[-1], 1]) < 0.2

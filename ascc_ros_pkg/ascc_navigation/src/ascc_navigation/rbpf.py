@@ -550,6 +550,8 @@ class _LikelihoodFields:
         self.origin_x = maps.info.origin_x + (x0 + 0.5) * res
         self.origin_y = maps.info.origin_y + (y0 + 0.5) * res
         self.res = res
+        # the distances' cap [m], as the image holds it: the range of climb's score table
+        self.radius = float(np.float32(cfg.match_radius))
 
     def rotated(self, theta: np.ndarray, pts: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """End points ``pts`` (M, 2, base frame) rotated by every ``theta`` [rad], in cells:
