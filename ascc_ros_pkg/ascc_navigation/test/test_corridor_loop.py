@@ -4,7 +4,7 @@ node's core (``SlamMapper``, config/gmapping.yaml but 10 particles to keep the t
 and every third beam, see ``_config``) is fed with scans of ascc_sim's URG-04LX model and
 odometry of its wheel-encoder error model, one scan per filter update (about 1000 updates;
 10-35 s per seed alone, up to 120 s under load). Three seeds: 7, and 1 and 4, on which
-a wrong along-corridor match closed the loop before 2026-12-01 (see the test)."""
+a wrong match along the corridor closed the loop before 2026-12-01 (see the test)."""
 
 import math
 import os
@@ -108,8 +108,8 @@ def test_corridor_loop_closes_within_the_bound(seed):
     # itself keeps this loop's error at 0.1-0.3 m. A right closure spreads the end's
     # error along the corridor over the loop's legs, which no corridor match tells apart,
     # and added up to 3 cm to the mean on seeds 1-10; a wrong match along the corridor,
-    # confirmed by a second match that left that axis free, added 15-37 cm on seeds 1, 4
-    # and 6 before each match of a pair kept only the axes both fix (2026-12-01). (This
+    # confirmed by a second match that left that axis free, added 15-37 cm on 4 of seeds
+    # 1-10 before each match of a pair kept only the axes both fix (2026-12-01). (This
     # test ran seed 7 alone then, with a 1 cm bound, which that seed's closures kept.)
     # That a closure removes a known drift is test_posegraph.py's test (0.318 -> 0.105 m).
     assert all(r.correction_m <= cfg.loop.max_correction_m for r in closed)
