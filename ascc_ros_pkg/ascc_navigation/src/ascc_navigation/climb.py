@@ -33,6 +33,7 @@ No ROS imports.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from types import SimpleNamespace
@@ -237,12 +238,16 @@ def field_image(visits: np.ndarray, hits: np.ndarray, window: Tuple[int, int, in
     return out
 
 
+@functools.lru_cache(maxsize=8)
 def score_table(radius: float, sigma: float) -> Tuple[np.ndarray, float]:
     """exp(-d^2 / (2 sigma^2)) at d = i h, i = 0 .. TABLE_SIZE + 1, h = radius / TABLE_SIZE
-    (the exponent's factor rounded to float32 as ``match_score`` has it), and 1 / h."""
+    (the exponent's factor rounded to float32 as ``match_score`` has it), and 1 / h.
+    Built once per (radius, sigma), not at every search: the array is read-only."""
     h = radius / TABLE_SIZE
     d = np.arange(TABLE_SIZE + 2) * h
-    return np.exp(d * d * float(np.float32(-0.5 / sigma ** 2))), 1.0 / h
+    table = np.exp(d * d * float(np.float32(-0.5 / sigma ** 2)))
+    table.flags.writeable = False
+    return table, 1.0 / h
 
 
 def geometry(fields, sigma: float) -> tuple:

@@ -623,17 +623,15 @@ class PoseGraph:
         only in the directions (map frame) where ``other``'s is not zero: its square-root
         information times the projection onto them, in edge's anchor frame. Both fix
         both axes: unchanged."""
-        def position_info(e):
-            c, s = math.cos(self.poses[e[0], 2]), math.sin(self.poses[e[0], 2])
-            rot = np.array([[c, -s], [s, c]])  # anchor frame -> map frame
-            w = e[3][:, :2] @ rot.T
-            return w.T @ w, rot
-        info_other, _ = position_info(other)
-        eig, axes = np.linalg.eigh(info_other)
+        def to_map(i):  # rotation of anchor i's frame into the map frame
+            c, s = math.cos(self.poses[i, 2]), math.sin(self.poses[i, 2])
+            return np.array([[c, -s], [s, c]])
+        w = other[3][:, :2] @ to_map(other[0]).T
+        eig, axes = np.linalg.eigh(w.T @ w)
         fixed = axes[:, eig > 1e-9 * max(float(eig.max()), 1e-300)]
         if fixed.shape[1] == 2:
             return edge
-        _, rot = position_info(edge)
+        rot = to_map(edge[0])
         proj = np.eye(3)
         proj[:2, :2] = rot.T @ (fixed @ fixed.T) @ rot  # onto other's fixed directions
         return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5])
