@@ -762,6 +762,37 @@ def test_prior_along_holds_the_position_along_the_heading_only(heading):
         R.RbpfConfig(prior_along=-1.0).validate()
 
 
+def test_adaptive_prior_along_pulls_where_the_scan_is_blind_along_the_heading():
+    # prior_along_adaptive: the pull along the heading tops up the scan's own information
+    # there. In a featureless corridor (nothing along it) it is the full prior_along and
+    # holds a 5 cm odometry error along the travel; facing a room's wall it vanishes and
+    # the scan corrects the same error, where the fixed pull keeps half of it.
+    def step(world, true0, true1, grid, adaptive):
+        cfg = R.RbpfConfig(particles=1, xmin=0, ymin=0, xmax=grid[0], ymax=grid[1], srr=0.0,
+                           srt=0.0, str=0.0, stt=0.0, motion_prior=0.0, prior_along=15.0,
+                           prior_along_adaptive=adaptive)
+        slam = R.RbpfSlam(cfg, seed=0)
+        kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+        slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+        wrong = P.compose(true1, [0.05, 0.0, 0.0])
+        stats = slam.update(P.relative(true0, wrong),
+                            _prepare(_room_scan(true1, world=world), **kw))
+        full = cfg.prior_along / cfg.prior_min_xy ** 2      # srr 0: the floor's variance
+        return stats, full, P.relative(true1, slam.best_pose)[0]
+
+    corridor, start = _corridor_world(), np.array([10.0, 1.5, 0.0])
+    stats, full, along = step(corridor, start, start + [0.25, 0.0, 0.0], (40, 3), True)
+    assert stats.along_info < 1e-2 * full and stats.along_pull > 0.99 * full
+    assert along > 0.045                                      # held to the odometry
+    room, start = S.office_world(), np.array([4.0, 1.8, 0.1 + math.pi / 2])
+    end = P.compose(start, [0.2, 0.0, 0.02])
+    stats, full, along = step(room, start, end, (14, 10), True)
+    assert stats.along_info > 2.0 * full and stats.along_pull == 0.0
+    assert abs(along) < 0.01                                  # the scan's
+    stats, full, along = step(room, start, end, (14, 10), False)
+    assert stats.along_pull == full and along > 0.02          # the fixed pull holds it
+
+
 def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1), **cfg_kw):
     """One update in the synthetic office with particles held at the truth turned by
     ``offsets`` [rad] (no motion noise; matched poses not accepted, so they stay)."""

@@ -97,6 +97,16 @@ class RbpfConfig:
     # the heading and the position across the travel to motion_prior; 0 disables it.
     prior_along: float = param(0.0, "[beams per sigma^2] extra matcher pull to the sampled "
                                "pose along the particle's heading only; 0 off (not gmapping)")
+    # Not in gmapping: prior_along only where the scan does not hold the position along the
+    # travel itself. The scan's information along the heading (Gauss-Newton, as
+    # ``scan_information``, for the best particle at its sampled pose) is the match score's
+    # curvature there; the extra pull tops it up to prior_along's (2 * along), and is zero
+    # where the scan alone is at least that tight (rooms, corners, door recesses). A fixed
+    # pull held the corridor's long sides to the odometry's length but made the lab's maps
+    # worse, where the scan constrains the position in every direction.
+    prior_along_adaptive: bool = param(False, "prior_along tops up the scan's own "
+                                       "information along the heading instead of adding "
+                                       "to it (not gmapping)")
     prior_min_xy: float = 0.02      # [m]
     prior_min_theta: float = 0.02   # [rad]
     # Not in gmapping: beams longer than maxUrange - (distance moved + this margin) are not
@@ -226,6 +236,9 @@ class UpdateStats:
     beams: int = 0             # end points matched (after the new-area / seen cuts)
     recovered: int = 0         # particles moved by the wide heading search
     degenerate: int = 0        # particles that kept the prediction in some direction
+    along_info: float = 0.0    # [1/m^2] the scan's information along the best particle's
+                               # heading (prior_along_adaptive only)
+    along_pull: float = 0.0    # [beams/m^2] the along pull the matcher used
     grown: bool = False        # the map grew
     log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
                                                 # / ogain, added to the log weights
@@ -742,9 +755,14 @@ class RbpfSlam:
             s_xy, s_th = motion_noise(odom_delta, cfg)
             inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
                                + [max(s_th, cfg.prior_min_theta) ** -2])
+            along = cfg.prior_along * inv_var[0]
+            if cfg.prior_along_adaptive and along > 0.0:
+                stats.along_info = self._along_information(fields, pts)
+                along = max(0.0, along - 0.5 * stats.along_info)
+            stats.along_pull = along
             matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var,
                                               self.poses, np.arange(cfg.particles),
-                                              along=cfg.prior_along * inv_var[0])
+                                              along=along)
             recovered = np.zeros(cfg.particles, dtype=bool)
             if cfg.recover_score > 0.0:
                 stats.recovered = self._recover(matched, score, pts, recovered)
@@ -788,6 +806,15 @@ class RbpfSlam:
         self._record(self.updates)
         self.updates += 1
         return stats
+
+    def _along_information(self, fields: _LikelihoodFields, pts: np.ndarray) -> float:
+        """The scan's information [1/m^2] about the position along the best particle's
+        heading, at its sampled pose in its own map: h^T I_xy h (``scan_information``)."""
+        b = self.best
+        pose = self.poses[b:b + 1]
+        info = scan_information(*fields.gradients(pose, np.array([b]), pts), self.cfg.sigma)[0]
+        h = np.array([math.cos(pose[0, 2]), math.sin(pose[0, 2])])
+        return float(h @ info[:2, :2] @ h)
 
     @staticmethod
     def _wall_axis(scan: PreparedScan) -> Optional[float]:
