@@ -4,6 +4,7 @@ numpy search before it; the score table against the exponential; the distance
 transform's input image."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -259,6 +260,47 @@ def test_grid_scores_are_the_gathered_means():
     got = C.grid_scores(lut, base, shift)
     assert got.dtype == np.float32 and got.shape == (5, shift.size)
     np.testing.assert_allclose(got, want, rtol=2e-6)
+
+
+def test_grid_scores_with_seen_space_are_the_means_over_it():
+    """With a seen mask: the mean of the lookups over the points that land in it, over at
+    least ``min_share`` of the points (numpy's gathers)."""
+    rng = np.random.default_rng(4)
+    seen = (rng.random(40 * 50) < 0.6).astype(np.float32)
+    lut = rng.random(40 * 50).astype(np.float32) * seen
+    shift = (np.arange(-3, 4)[:, None] * 50 + np.arange(-3, 4)[None, :]).ravel()
+    base = rng.integers(3 * 50 + 3, 36 * 50 - 3, (5, 200))
+    for share in (0.1, 0.9):  # the floor unused, then used (~60 % land in seen space)
+        want = np.stack([lut.take(base[t][None, :] + shift[:, None]).sum(axis=1)
+                         / np.maximum(seen.take(base[t][None, :] + shift[:, None]).sum(axis=1),
+                                      share * 200) for t in range(5)])
+        got = C.grid_scores(lut, base, shift, seen, share)
+        np.testing.assert_allclose(got, want, rtol=2e-6)
+
+
+def test_pose_scores_with_seen_space_weigh_each_point_by_it(loop_field):
+    """With a seen mask: each point's score weighted by the mask interpolated as the
+    distance is, over the sum of the weights (at least ``min_share`` of the points); a
+    mask of ones scores as none."""
+    field, pts = loop_field
+    rng = np.random.default_rng(5)
+    cand = np.array([4.8, 2.0, 0.3]) + rng.uniform([-0.3, -0.3, -0.1], [0.3, 0.3, 0.1],
+                                                   (20, 3))
+    seen = np.zeros_like(field.dist)
+    seen[:, : field.w // 2] = 1.0  # the west half seen
+    c, s = np.cos(cand[:, 2])[:, None], np.sin(cand[:, 2])[:, None]
+    x = cand[:, 0:1] + c * pts[:, 0] - s * pts[:, 1]
+    y = cand[:, 1:2] + s * pts[:, 0] + c * pts[:, 1]
+    score = np.exp(-0.5 * (_bilinear_distances(field, x, y) / 0.05) ** 2)
+    weight = _bilinear_distances(SimpleNamespace(dist=seen, x0=field.x0, y0=field.y0,
+                                                 res=field.res, w=field.w, h=field.h), x, y)
+    assert 0.0 < weight.mean() < 1.0
+    want = (weight * score).sum(axis=1) / np.maximum(weight.sum(axis=1), 0.1 * pts.shape[0])
+    got = C.pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, 0.05, seen, 0.1)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    ones = C.pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, 0.05,
+                         np.ones_like(seen))
+    np.testing.assert_allclose(ones, score.mean(axis=1), rtol=1e-12)
 
 
 def test_warm_up_runs_the_kernels():

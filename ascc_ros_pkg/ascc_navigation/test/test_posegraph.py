@@ -193,6 +193,44 @@ def test_corridor_match_fixes_only_the_lateral_position_and_heading():
     assert _pose_error(graph.poses, truth).max() < 0.1
 
 
+@pytest.mark.parametrize("x", [4.3, 4.5, 4.8])
+def test_a_loop_match_scores_only_what_the_submap_saw(x):
+    """A submap of keyframes driven east from x = 5 m along a corridor (a door recess at 8-9
+    m on one side) and a scan from x m, which sees the walls behind it past where the
+    submap's scans saw (the URG's 240 degrees): counted as misses, those end points pull
+    the match east onto the submap's walls (0.2-0.7 m, with a claimed std along of
+    0.15-0.2 m); scored only where the submap saw, the match keeps the lateral position and
+    heading and does not claim the position along the corridor (its std there above
+    loop_max_spread_m) or rests on too little to be used (``min_seen_share``)."""
+    world = S.rect_world((30.0, 3.2), 0.05, [(0.0, 2.6, 8.0, 3.2), (9.0, 2.6, 30.0, 3.2)])
+    truth, scans = _keyframes(world, [(5.0, 1.3), (9.0, 1.3)])
+    pose = np.array([x, 1.3, 0.0])
+    scan = _prepare(S.simulate_scan(world[0] == OCCUPIED, world[1], pose, MOUNT, SPEC,
+                                    np.random.default_rng(1)))
+    cloud = np.vstack([PG._transform(p, PG._surface_points(s.origin, s.hits, 0.025)
+                                     .astype(float)) for p, s in zip(truth, scans)])
+    pts = PG._subsample(PG._surface_points(scan.origin, scan.match, 0.025).astype(float), 400)
+    cfg = PG.LoopClosureConfig()
+    guess = pose + np.array([0.2, 0.05, 0.01])
+
+    def match(seen):
+        field = PG.LikelihoodField(cloud, cfg.coarse_step_m, 6.0, 3.0 * cfg.match_sigma_m,
+                                   seen)
+        best, _, cov, _ = PG.correlative_match(
+            field, pts, guess, cfg.window_m, cfg.window_rad, cfg.coarse_step_rad,
+            cfg.match_sigma_m, coarse_points=cfg.coarse_points,
+            seen_floor_share=cfg.seen_floor_share)
+        return best - pose, np.sqrt(np.diag(cov)), field.seen_share(best, pts)
+
+    err, _, _ = match(None)
+    assert err[0] > 0.15, err  # pulled east, onto more of the submap's walls
+    seen = [PG._transform(p, PG._seen_polygon(s, 3.0 * cfg.match_sigma_m))
+            for p, s in zip(truth, scans)]
+    err, std, share = match(seen)
+    assert abs(err[1]) < 0.02 and abs(err[2]) < 0.01, err
+    assert std[0] > cfg.max_spread_m or share < cfg.min_seen_share, (err, std, share)
+
+
 def test_optimise_distributes_a_loop_residual():
     """Back end alone: a square of 4 x 10 unit steps whose odometry edges turn 1 degree
     too little each; one loop edge end -> start makes the optimised square close."""

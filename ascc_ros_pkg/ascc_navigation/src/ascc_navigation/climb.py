@@ -27,7 +27,8 @@ The loop closure's correlative matcher (``posegraph.correlative_match``) has two
 here too: the coarse grid's mean scores (``grid_scores``) and the refinement's bilinear
 scores (``pose_scores``), each one pass over the end points per candidate instead of
 numpy's (candidates x points) arrays: a sequential or loop match takes a quarter of the
-time it did, with the same result.
+time it did, with the same result. Both can score only the end points that land in space
+the submap saw (a loop match: ``posegraph.LikelihoodField``'s ``seen``).
 No ROS imports.
 """
 
@@ -37,7 +38,7 @@ import functools
 import math
 import time
 from types import SimpleNamespace
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 from numba import njit
@@ -275,24 +276,52 @@ def _grid_scores(lut, base, shift, out):
             out[t, j] = total / n
 
 
-def grid_scores(lut: np.ndarray, base: np.ndarray, shift: np.ndarray) -> np.ndarray:
+@njit(cache=True, nogil=True)
+def _grid_scores_seen(lut, seen, base, shift, min_count, out):
+    """out[t, j] = sum over m of lut*seen at base[t, m] + shift[j] over max(the sum of seen
+    there, min_count) (float64 sums): the mean over the points that land in seen space."""
+    n = base.shape[1]
+    for t in range(base.shape[0]):
+        for j in range(shift.size):
+            off = shift[j]
+            total = 0.0
+            count = 0.0
+            for m in range(n):
+                k = base[t, m] + off
+                total += lut[k]
+                count += seen[k]
+            out[t, j] = total / max(count, min_count)
+
+
+def grid_scores(lut: np.ndarray, base: np.ndarray, shift: np.ndarray,
+                seen: Optional[np.ndarray] = None, min_share: float = 0.5) -> np.ndarray:
     """The loop closure's coarse correlative search (``posegraph.correlative_match``): the
     mean of the flat score table ``lut`` (float32) at the end points' flat indices ``base``
     (T headings, M points) shifted by each of the flat offsets ``shift`` (S,), as (T, S)
-    float32, without numpy's (S, M) gather per heading."""
+    float32, without numpy's (S, M) gather per heading. ``seen`` (the table's shape, 0 or
+    1): the mean over the points landing where it is 1 only (``lut`` is then expected zero
+    elsewhere), over at least ``min_share`` of the points (the others count as 0)."""
     base = np.ascontiguousarray(base, dtype=np.int64)
     out = np.empty((base.shape[0], shift.size), np.float32)
-    _grid_scores(np.ascontiguousarray(lut, dtype=np.float32).ravel(), base,
-                 np.ascontiguousarray(shift, dtype=np.int64), out)
+    flat = np.ascontiguousarray(lut, dtype=np.float32).ravel()
+    shift = np.ascontiguousarray(shift, dtype=np.int64)
+    if seen is None:
+        _grid_scores(flat, base, shift, out)
+    else:
+        _grid_scores_seen(flat, np.ascontiguousarray(seen, dtype=np.float32).ravel(), base,
+                          shift, float(min_share * base.shape[1]), out)
     return out
 
 
 @njit(cache=True, nogil=True)
-def _pose_scores(dist, x0, y0, res, cand, px, py, sigma, out):
+def _pose_scores(dist, seen, min_count, x0, y0, res, cand, px, py, sigma, out):
     """Bilinear match scores of the points (px, py; base frame [m]) at each candidate pose
     (rows of ``cand``) in the distance image ``dist`` (h, w) whose cell (0, 0) has its
     corner at (x0, y0): the distance interpolated between cell centres (clamped to the
-    image), then exp(-d^2 / 2 sigma^2), averaged over the points."""
+    image), then exp(-d^2 / 2 sigma^2), averaged over the points. ``seen`` (h, w; or
+    (0, 0): everywhere): each point weighted by it, interpolated alike, the sum of the
+    weights (at least ``min_count``) the divisor."""
+    use_seen = seen.shape[0] > 0
     max_u = dist.shape[1] - 1.001
     max_v = dist.shape[0] - 1.001
     inv_res = 1.0 / res
@@ -306,6 +335,7 @@ def _pose_scores(dist, x0, y0, res, cand, px, py, sigma, out):
         cu = c * inv_res
         su = s * inv_res
         total = 0.0
+        count = 0.0
         for m in range(n):
             u = u0 + (cu * px[m] - su * py[m])
             v = v0 + (su * px[m] + cu * py[m])
@@ -326,17 +356,32 @@ def _pose_scores(dist, x0, y0, res, cand, px, py, sigma, out):
             top = d00 + fu * (dist[iv, iu + 1] - d00)
             bottom = d10 + fu * (dist[iv + 1, iu + 1] - d10)
             d = top + fv * (bottom - top)
-            total += math.exp(k2 * (d * d))
-        out[k] = total / n
+            if use_seen:
+                s00 = seen[iv, iu]
+                s10 = seen[iv + 1, iu]
+                s_top = s00 + fu * (seen[iv, iu + 1] - s00)
+                s_bottom = s10 + fu * (seen[iv + 1, iu + 1] - s10)
+                weight = s_top + fv * (s_bottom - s_top)
+                total += weight * math.exp(k2 * (d * d))
+                count += weight
+            else:
+                total += math.exp(k2 * (d * d))
+        out[k] = total / max(count, min_count) if use_seen else total / n
 
 
 def pose_scores(dist: np.ndarray, x0: float, y0: float, res: float, cand: np.ndarray,
-                pts: np.ndarray, sigma: float) -> np.ndarray:
+                pts: np.ndarray, sigma: float, seen: Optional[np.ndarray] = None,
+                min_share: float = 0.5) -> np.ndarray:
     """The loop closure's refinement scores (``posegraph._refine``) of the base-frame points
-    ``pts`` (M, 2) at the poses ``cand`` (K, 3), one pass per pose, no (K, M) arrays."""
+    ``pts`` (M, 2) at the poses ``cand`` (K, 3), one pass per pose, no (K, M) arrays.
+    ``seen`` (dist's shape, 0..1): the mean over the points weighted by it (as in
+    ``grid_scores``), over at least ``min_share`` of the points."""
     pts = np.asarray(pts, dtype=np.float64)
     out = np.empty(cand.shape[0])
-    _pose_scores(np.ascontiguousarray(dist, dtype=np.float32), float(x0), float(y0),
+    seen = np.zeros((0, 0), np.float32) if seen is None else seen
+    _pose_scores(np.ascontiguousarray(dist, dtype=np.float32),
+                 np.ascontiguousarray(seen, dtype=np.float32),
+                 float(min_share * pts.shape[0]), float(x0), float(y0),
                  float(res), np.ascontiguousarray(cand, dtype=np.float64),
                  np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
                  float(sigma), out)
@@ -382,7 +427,9 @@ def warm_up() -> float:
                              origin_x=0.0, origin_y=0.0, radius=0.15)
     hill_climb(fields, np.array([[0.15, 0.2]]), np.ones(3), np.zeros((1, 3)),
                np.zeros(1, np.int64), 0.05, 0.05, 1, 0.05, 2)
-    grid_scores(np.zeros(64, np.float32), np.zeros((1, 2), np.int64), np.zeros(3, np.int64))
-    pose_scores(np.zeros((8, 8), np.float32), 0.0, 0.0, 0.05, np.zeros((2, 3)),
-                np.zeros((3, 2)), 0.05)
+    for seen in (None, np.ones((8, 8), np.float32)):
+        grid_scores(np.zeros(64, np.float32), np.zeros((1, 2), np.int64),
+                    np.zeros(3, np.int64), seen)
+        pose_scores(np.zeros((8, 8), np.float32), 0.0, 0.0, 0.05, np.zeros((2, 3)),
+                    np.zeros((3, 2)), 0.05, seen)
     return time.process_time() - t0

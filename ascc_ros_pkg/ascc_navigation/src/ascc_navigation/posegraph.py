@@ -17,7 +17,9 @@ map. This module keeps, next to the filter, one keyframe per filter update:
   old keyframes' scans at their node poses: a correlative search (likelihood field from
   ``cv2.distanceTransform``, every (dx, dy, dtheta) of a grid scored at once) refined on a
   finer grid with bilinear lookups (both compiled: ``climb.grid_scores``,
-  ``pose_scores``). It is accepted only if the matched share of the beams reaches
+  ``pose_scores``), scoring only the end points that land in space the old scans saw
+  (``LikelihoodField``'s ``seen``; a match with fewer than ``min_seen_share`` of them
+  there is rejected). It is accepted only if the matched share of the beams reaches
   ``min_score`` and the match is determined: the candidates' score-weighted covariance
   gives each position axis a std; axes above ``max_spread_m`` are left free (a
   featureless corridor fixes the lateral position and the heading, not the position along
@@ -125,6 +127,15 @@ class LoopClosureConfig:
     coarse_step_rad: float = 0.01     # [rad]
     match_sigma_m: float = 0.05       # [m] end-point score std
     coarse_points: int = 120          # of them scored in the loop search's coarse grid
+    # a loop match scores only the scan's end points that land in space the submap's scans
+    # saw (their free-space polygons, ``LikelihoodField``'s ``seen``), but over at least
+    # seen_floor_share of all; a match at which fewer than min_seen_share of them land
+    # there is rejected (it rests on too little). End points past the submap's view
+    # counted as misses pulled a corridor match 0.7 m along it, with a claimed 0.13 m std
+    # (docs/results)
+    seen_only: bool = True
+    seen_floor_share: float = 0.1
+    min_seen_share: float = 0.5
     max_points: int = 400             # matched end points per scan (evenly subsampled)
     # sequential edges: "geometry" = the front end's increment where its scan constrains
     # it, the odometry's where not (``PoseGraph._geometry_edges``); "isotropic" = the
@@ -174,9 +185,17 @@ class LoopResult:
 class LikelihoodField:
     """Distance [m] from each cell of a window to the nearest end point of a set of points
     (world frame), capped; scored by nearest-cell gathers (coarse search) or bilinear
-    interpolation (refinement), both in ``climb`` (``grid_scores``, ``pose_scores``)."""
+    interpolation (refinement), both in ``climb`` (``grid_scores``, ``pose_scores``).
 
-    def __init__(self, points: np.ndarray, resolution: float, margin_m: float, cap_m: float):
+    ``seen`` (polygons, world frame; ``_seen_polygon`` of the scans the points came from):
+    the cells inside them are the space the points' scans saw (``self.seen``, 1 there, 0
+    elsewhere; None without polygons: everywhere). A match then scores only the end points
+    that land there: an end point beyond what the submap's scans saw (past their reach or
+    outside their field of view) tells nothing about the pose, but counted as a miss it
+    pulls the match towards more overlap, along a corridor as far as the window lets it."""
+
+    def __init__(self, points: np.ndarray, resolution: float, margin_m: float, cap_m: float,
+                 seen: Optional[List[np.ndarray]] = None):
         self.res = float(resolution)
         lo = points.min(axis=0) - margin_m
         hi = points.max(axis=0) + margin_m
@@ -191,6 +210,27 @@ class LikelihoodField:
         dist *= np.float32(self.res)
         np.minimum(dist, np.float32(cap_m), out=dist)
         self.dist = dist
+        self.seen = None
+        if seen is not None:
+            # vertices in pixel coordinates (cell centres at integers), 4 fractional bits
+            origin = np.array([self.x0, self.y0])
+            polys = [np.round(((np.asarray(p, dtype=float) - origin) / self.res - 0.5) * 16.0)
+                     .astype(np.int32) for p in seen if len(p) >= 3]
+            mask = np.zeros((self.h, self.w), np.float32)
+            if polys:
+                cv2.fillPoly(mask, polys, 1.0, lineType=cv2.LINE_8, shift=4)
+            self.seen = mask
+
+    def seen_share(self, pose: np.ndarray, pts: np.ndarray) -> float:
+        """Share of the base-frame points ``pts`` that land in seen space at ``pose`` (1
+        without ``seen``)."""
+        if self.seen is None or pts.shape[0] == 0:
+            return 1.0
+        w = _transform(pose, pts)
+        ix = np.floor((w[:, 0] - self.x0) / self.res).astype(np.int64)
+        iy = np.floor((w[:, 1] - self.y0) / self.res).astype(np.int64)
+        inside = (ix >= 0) & (ix < self.w) & (iy >= 0) & (iy < self.h)
+        return float(self.seen[iy[inside], ix[inside]].sum()) / pts.shape[0]
 
 
 def _transform(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -201,8 +241,9 @@ def _transform(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray,
                       window_m: float, window_rad: float, step_rad: float, sigma: float,
-                      prior: Optional[np.ndarray] = None,
-                      coarse_points: int = 0) -> Tuple[np.ndarray, float, np.ndarray, bool]:
+                      prior: Optional[np.ndarray] = None, coarse_points: int = 0,
+                      seen_floor_share: float = 0.1
+                      ) -> Tuple[np.ndarray, float, np.ndarray, bool]:
     """Best pose of the base-frame points ``pts`` (M, 2) in ``field`` within +-window_m,
     +-window_rad of ``guess``: every candidate of a grid (field cells in x, y; ``step_rad``
     in heading) scored at once by nearest-cell gathers, then a finer grid around the best
@@ -217,7 +258,10 @@ def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray
     heading, or in x or y (the true pose may be beyond it).
     ``prior`` (w_x, w_y, w_theta): the search maximises score - sum w_k (pose_k - guess_k)^2
     instead (a pull to the guess, as the filter's ``motion_prior``: a scan in a featureless
-    corridor does not slide along it); the returned score is the plain one."""
+    corridor does not slide along it); the returned score is the plain one.
+    A field with ``seen`` space: the mean is over the points that land in it, but over at
+    least ``seen_floor_share`` of all (a candidate with almost none there does not score
+    high on a handful)."""
     all_pts = pts
     if coarse_points > 0:
         pts = _subsample(pts, coarse_points)
@@ -237,13 +281,16 @@ def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray
     pad = k_xy + 1
     padded = np.pad(field.dist, pad, mode="edge")
     lut = np.exp(-0.5 * (padded.astype(np.float32) / np.float32(sigma)) ** 2)
+    seen = None
+    if field.seen is not None:
+        seen = np.pad(field.seen, pad, mode="constant")
+        lut *= seen
     wp = padded.shape[1]
     ix = np.clip(ix, 0, field.w - 1) + pad
     iy = np.clip(iy, 0, field.h - 1) + pad
     base = iy * wp + ix  # (T, M)
     shift = (offs[:, None] * wp + offs[None, :]).ravel()  # (dy, dx) flattened: (K*K,)
-    flat = lut.ravel()
-    scores = grid_scores(flat, base, shift)  # (T, K*K)
+    scores = grid_scores(lut.ravel(), base, shift, seen, seen_floor_share)  # (T, K*K)
     objective = scores
     if prior is not None:
         dxy = (offs * res) ** 2
@@ -266,13 +313,15 @@ def correlative_match(field: LikelihoodField, pts: np.ndarray, guess: np.ndarray
                                                + [step_rad * step_rad / 12.0])
     at_edge = (k_xy > 0 and max(abs(offs[dx_best]), abs(offs[dy_best])) == k_xy) or (
         k_th > 0 and abs(int(t_best) - k_th) == k_th)
-    best, score = _refine(field, all_pts, best, res, step_rad, sigma, guess, prior)
+    best, score = _refine(field, all_pts, best, res, step_rad, sigma, guess, prior,
+                          seen_floor_share)
     return best, score, cov, bool(at_edge)
 
 
 def _refine(field: LikelihoodField, pts: np.ndarray, start: np.ndarray, step_m: float,
             step_rad: float, sigma: float, guess: np.ndarray,
-            prior: Optional[np.ndarray]) -> Tuple[np.ndarray, float]:
+            prior: Optional[np.ndarray], seen_floor_share: float = 0.1
+            ) -> Tuple[np.ndarray, float]:
     """Two finer grids (a fifth of the coarse steps, then a fifth again) around ``start``,
     bilinear scores (and the prior's pull to ``guess``)."""
     best = start.copy()
@@ -283,7 +332,8 @@ def _refine(field: LikelihoodField, pts: np.ndarray, start: np.ndarray, step_m: 
         o = np.arange(-3, 4)
         dx, dy, dt = np.meshgrid(o * sm, o * sm, o * sr, indexing="ij")
         cand = best + np.column_stack([dx.ravel(), dy.ravel(), dt.ravel()])
-        sc = pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, sigma)
+        sc = pose_scores(field.dist, field.x0, field.y0, field.res, cand, pts, sigma,
+                         field.seen, seen_floor_share)
         obj = sc if prior is None else sc - ((cand - guess) ** 2 * prior).sum(axis=1)
         j = int(np.argmax(obj))
         best = cand[j]
@@ -338,6 +388,20 @@ def scan_information(points: np.ndarray, sigma: float, max_points: int,
         p, n = p[keep], n[keep]
     jac = np.column_stack([n, n[:, 0] * -p[:, 1] + n[:, 1] * p[:, 0]])
     return 0.5 * (jac.T @ jac) / (sigma * sigma)
+
+
+def _seen_polygon(scan: PreparedScan, behind_m: float) -> np.ndarray:
+    """The space ``scan`` saw (base frame): its free-space polygon with each vertex short of
+    ``max_urange`` (a beam that hit something) moved ``behind_m`` further along its beam,
+    past the surface and the free space's pull-back, but not sideways: the walls and
+    what lies just behind them (where a misplaced end point lands) belong to it, space
+    beside the field of view or past the reach does not."""
+    poly = scan.free_polygon.astype(float)
+    rel = poly - scan.origin.astype(float)
+    r = np.hypot(rel[:, 0], rel[:, 1])
+    hit = (r > 1e-6) & (r < scan.max_urange - 1e-3)
+    scale = np.where(hit, (r + behind_m) / np.maximum(r, 1e-6), 1.0)
+    return scan.origin.astype(float) + rel * scale[:, None]
 
 
 def _compact(scan: PreparedScan) -> PreparedScan:
@@ -538,17 +602,23 @@ class PoseGraph:
         anchor = int(old[np.argmin(gap)])
         near = old[np.hypot(self.poses[old, 0] - self.poses[anchor, 0],
                             self.poses[old, 1] - self.poses[anchor, 1]) <= cfg.submap_radius_m]
-        cloud = [_transform(self.poses[i], self.points[i].astype(float)) for i in near
-                 if self.points[i].shape[0]]
+        with_points = [i for i in near if self.points[i].shape[0]]
+        cloud = [_transform(self.poses[i], self.points[i].astype(float)) for i in with_points]
         pts = _subsample(self.match_points[k].astype(float), cfg.max_points)
         if not cloud or pts.shape[0] < 10:
             return LoopResult()
+        seen = None
+        if cfg.seen_only:
+            behind = 3.0 * cfg.match_sigma_m  # the field's cap: a miss scores ~0 there
+            seen = [_transform(self.poses[i], _seen_polygon(self.scans[i], behind))
+                    for i in with_points]
         field = LikelihoodField(np.vstack(cloud), cfg.coarse_step_m,
                                 cfg.window_m + cfg.submap_radius_m + 1.0,
-                                3.0 * cfg.match_sigma_m)
+                                3.0 * cfg.match_sigma_m, seen)
         best, score, cov, at_edge = correlative_match(
             field, pts, self.poses[k], cfg.window_m, cfg.window_rad, cfg.coarse_step_rad,
-            cfg.match_sigma_m, coarse_points=cfg.coarse_points)
+            cfg.match_sigma_m, coarse_points=cfg.coarse_points,
+            seen_floor_share=cfg.seen_floor_share)
         where = "keyframe %d (%.1f m back) near (%.1f, %.1f)" % (
             anchor, self.path_m[k] - self.path_m[anchor], self.poses[anchor, 0],
             self.poses[anchor, 1])
@@ -556,6 +626,13 @@ class PoseGraph:
             return LoopResult("rejected", "loop candidate %s: match score %.2f below "
                               "loop_min_score %.2f" % (where, score, cfg.min_score),
                               anchor=anchor, score=score)
+        if field.seen is not None:
+            share = field.seen_share(best, pts)
+            if share < cfg.min_seen_share:
+                return LoopResult("rejected", "loop candidate %s: the submap saw only %.0f %% "
+                                  "of the scan's end points at the match (less than %.0f %%)"
+                                  % (where, 100.0 * share, 100.0 * cfg.min_seen_share),
+                                  anchor=anchor, score=score)
         # position uncertainty in the anchor's frame (the loop edge's), its principal axes
         c, s = math.cos(self.poses[anchor, 2]), math.sin(self.poses[anchor, 2])
         rot = np.array([[c, s], [-s, c]])
