@@ -358,6 +358,56 @@ def test_a_pair_closes_only_the_axes_both_matches_fix():
     assert math.hypot(*graph.poses[40, :2]) < 0.1  # the square closed, not 0.8 m off
 
 
+def test_the_rest_of_a_match_waits_for_the_next_one():
+    """``loop_confirm`` (``confirm_rest``): a first match that leaves the position along the
+    square's first side free and a second that fixes it close across it and in heading;
+    the second's information along it waits (its rest) and closes with a third that fixes
+    it too; the same in the other order. A rest 0.8 m wrong along it is dropped by a right
+    third match, which waits."""
+    def square():
+        graph, truth = _square_with_turn_errors()
+        graph.cfg.confirm = True
+        return graph, truth, lambda k: P.relative(truth[k], truth[40])
+
+    both, across = np.array([20.0, 20.0, 50.0]), np.array([0.0, 20.0, 50.0])
+    graph, truth, right = square()
+    assert graph.propose_loop(0, 40, right(0), across, "across").status == "pending"
+    assert graph.propose_loop(1, 40, right(1), both, "both").status == "closed"
+    rest = graph.pending
+    assert rest is not None and rest[6] and rest[:2] == (1, 40)
+    np.testing.assert_allclose(np.abs(rest[3]), [[20.0, 0.0, 0.0], [0.0, 0.0, 0.0],
+                                                 [0.0, 0.0, 0.0]], atol=1e-9)  # along only
+    after_two = math.hypot(*graph.poses[40, :2])
+    r = graph.propose_loop(2, 40, right(2), both, "both again")
+    assert r.status in ("closed", "kept"), r.reason
+    assert graph.loop_edges == 4
+    assert math.hypot(*graph.poses[40, :2]) < min(0.5 * after_two, 0.02), after_two
+    # the same with the match that fixes both first: its rest waits
+    graph, truth, right = square()
+    graph.propose_loop(0, 40, right(0), both, "both")
+    assert graph.propose_loop(1, 40, right(1), across, "across").status == "closed"
+    assert graph.pending is not None and graph.pending[6] and graph.pending[0] == 0
+    assert graph.propose_loop(2, 40, right(2), both).status in ("closed", "kept")
+    assert graph.loop_edges == 4 and math.hypot(*graph.poses[40, :2]) < 0.02
+    # without the rest the along information of match 1 is dropped: the third waits
+    graph, truth, right = square()
+    graph.cfg.confirm_rest = False
+    graph.propose_loop(0, 40, right(0), across)
+    graph.propose_loop(1, 40, right(1), both)
+    assert graph.pending is None
+    assert graph.propose_loop(2, 40, right(2), both).status == "pending"
+    # a wrong rest: the second match 0.8 m off along the side
+    graph, truth, right = square()
+    graph.propose_loop(0, 40, right(0), across, "across")
+    wrong = right(1) + np.array([0.8, 0.0, 0.0])
+    assert graph.propose_loop(1, 40, wrong, both, "wrong along").status == "closed"
+    assert graph.pending is not None and graph.pending[6]
+    r = graph.propose_loop(2, 40, right(2), both, "right")
+    assert r.status == "rejected" and "disagree" in r.reason, r.reason
+    assert graph.pending[4] == "right" and not graph.pending[6]  # the right one waits
+    assert graph.loop_edges == 2
+
+
 def test_mapper_closes_the_office_loop_and_keeps_tf_consistent():
     """The node's core with loop closure on, drifting odometry: the loop is
     found, the map agrees with the truth, and map -> odom -> base is the corrected pose."""

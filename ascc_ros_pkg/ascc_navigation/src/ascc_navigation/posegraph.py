@@ -160,6 +160,11 @@ class LoopClosureConfig:
     # more than a chi-square of its fixed axes at the probability of this many stds
     # (``loop_confirm``)
     confirm_sigmas: float = 3.0
+    # after a pair closed, one match's position information in the directions the other
+    # left free (a corridor match that fixes the position along it, paired with one that
+    # does not; the newer's if both have such) waits for the next match to confirm it,
+    # instead of being dropped
+    confirm_rest: bool = True
 
 
 class LoopResult:
@@ -346,6 +351,11 @@ def _sqrt_info(w) -> np.ndarray:
     """A 3x3 square-root information matrix from 1/std per axis or a 3x3 matrix."""
     w = np.asarray(w, dtype=float)
     return np.diag(w) if w.ndim == 1 else w
+
+
+def _fixes_position(sqrt_info: np.ndarray) -> bool:
+    """Whether a square-root information matrix holds any position information."""
+    return bool(np.abs(np.asarray(sqrt_info)[:, :2]).max() > 1e-9)
 
 
 def _subsample(pts: np.ndarray, n: int) -> np.ndarray:
@@ -672,13 +682,18 @@ class PoseGraph:
         fixes the position along a corridor, beside one that leaves it free, is confirmed
         across the corridor only, and closes only that."""
         where = where or "keyframes %d -> %d" % (i, j)
-        edge = (i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where, score)
+        edge = (i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where, score, False)
         if not self.cfg.confirm:
-            return self.close_loop(*edge)
+            return self.close_loop(*edge[:6])
+        full = edge
         first, self.pending = self.pending, edge
+        if first is not None and first[6] and not _fixes_position(
+                self._confirmed_axes(first, edge)[3]):
+            first = None  # the rest of an earlier match that this one cannot confirm
         if first is None:
             return LoopResult("pending", "loop match with %s (score %.2f) waits for a second "
                               "one to agree" % (where, score), anchor=i, score=score)
+        first_full = first
         first, edge = self._confirmed_axes(first, edge), self._confirmed_axes(edge, first)
         # the cost of the two together above the cost of either alone: small if they say
         # the same, about their disagreement squared over the stds of the short paths
@@ -693,7 +708,30 @@ class PoseGraph:
                               "the second waits for another" % (first[4], where, added, bound),
                               anchor=i, score=score)
         self.pending = None
-        return self._close([first, edge], "%s and %s" % (first[4], where), score, optimised)
+        # what one match fixes and the other left free: the newer's, else the older's
+        # (in the frames the pair was tested in)
+        rest = self._unconfirmed(full, first_full)
+        if not _fixes_position(rest[3]):
+            rest = self._unconfirmed(first_full, full)
+        result = self._close([first, edge], "%s and %s" % (first[4], where), score, optimised)
+        if result.status != "rejected" and self.cfg.confirm_rest and _fixes_position(rest[3]):
+            self.pending = rest
+        return result
+
+    def _unconfirmed(self, edge, other):
+        """The rest of ``edge`` after a pair with ``other`` closed: its position information
+        in the directions (map frame) ``other`` left free, none in heading (that went into
+        the pair), flagged as a rest. It waits to be confirmed by the next match."""
+        def to_map(i):
+            c, s = math.cos(self.poses[i, 2]), math.sin(self.poses[i, 2])
+            return np.array([[c, -s], [s, c]])
+        w = other[3][:, :2] @ to_map(other[0]).T
+        eig, axes = np.linalg.eigh(w.T @ w)
+        free = axes[:, eig <= 1e-9 * max(float(eig.max()), 1e-300)]
+        rot = to_map(edge[0])
+        proj = np.zeros((3, 3))
+        proj[:2, :2] = rot.T @ (free @ free.T) @ rot
+        return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5], True)
 
     def _confirmed_axes(self, edge, other):
         """``edge`` (i, j, z, sqrt_info, where, score) with its position information kept
@@ -711,13 +749,13 @@ class PoseGraph:
         rot = to_map(edge[0])
         proj = np.eye(3)
         proj[:2, :2] = rot.T @ (fixed @ fixed.T) @ rot  # onto other's fixed directions
-        return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5])
+        return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5], edge[6])
 
     def _cost_with(self, loops) -> Tuple[float, np.ndarray]:
         """The graph's sum of squared whitened residuals, optimised with the given loop
         edges added (and then removed again), and the optimised node poses."""
         n_edges = len(self.edges)
-        self.edges.extend((i, j, z, w) for i, j, z, w, _, _ in loops)
+        self.edges.extend((i, j, z, w) for i, j, z, w, *_ in loops)
         try:
             optimised = self.optimise()
         finally:
@@ -732,7 +770,7 @@ class PoseGraph:
         correction bounds (see the module doc)."""
         where = where or "keyframes %d -> %d" % (i, j)
         return self._close([(i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where,
-                             score)], where, score)
+                             score, False)], where, score)
 
     def _close(self, loops, where: str, score: float,
                optimised: Optional[np.ndarray] = None) -> LoopResult:
@@ -742,7 +780,7 @@ class PoseGraph:
         cfg = self.cfg
         i = loops[0][0]
         n_edges = len(self.edges)
-        self.edges.extend((a, b, z, w) for a, b, z, w, _, _ in loops)
+        self.edges.extend((a, b, z, w) for a, b, z, w, *_ in loops)
         if optimised is None:
             optimised = self.optimise()
         moved = np.hypot(optimised[:, 0] - self.poses[:, 0], optimised[:, 1] - self.poses[:, 1])
