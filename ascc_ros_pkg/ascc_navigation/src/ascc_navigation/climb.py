@@ -294,7 +294,7 @@ def _grid_scores_seen(lut, seen, base, shift, min_count, out):
 
 
 def grid_scores(lut: np.ndarray, base: np.ndarray, shift: np.ndarray,
-                seen: Optional[np.ndarray] = None, min_share: float = 0.5) -> np.ndarray:
+                seen: Optional[np.ndarray] = None, min_share: float = 0.1) -> np.ndarray:
     """The loop closure's coarse correlative search (``posegraph.correlative_match``): the
     mean of the flat score table ``lut`` (float32) at the end points' flat indices ``base``
     (T headings, M points) shifted by each of the flat offsets ``shift`` (S,), as (T, S)
@@ -371,7 +371,7 @@ def _pose_scores(dist, seen, min_count, x0, y0, res, cand, px, py, sigma, out):
 
 def pose_scores(dist: np.ndarray, x0: float, y0: float, res: float, cand: np.ndarray,
                 pts: np.ndarray, sigma: float, seen: Optional[np.ndarray] = None,
-                min_share: float = 0.5) -> np.ndarray:
+                min_share: float = 0.1) -> np.ndarray:
     """The loop closure's refinement scores (``posegraph._refine``) of the base-frame points
     ``pts`` (M, 2) at the poses ``cand`` (K, 3), one pass per pose, no (K, M) arrays.
     ``seen`` (dist's shape, 0..1): the mean over the points weighted by it (as in

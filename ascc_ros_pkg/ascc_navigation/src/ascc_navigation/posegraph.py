@@ -685,16 +685,16 @@ class PoseGraph:
         edge = (i, j, np.asarray(z, dtype=float), _sqrt_info(sqrt_info), where, score, False)
         if not self.cfg.confirm:
             return self.close_loop(*edge[:6])
-        full = edge
+        full = first_full = edge
         first, self.pending = self.pending, edge
-        if first is not None and first[6] and not _fixes_position(
-                self._confirmed_axes(first, edge)[3]):
-            first = None  # the rest of an earlier match that this one cannot confirm
+        if first is not None:
+            first_full = first
+            first, edge = self._confirmed_axes(first, edge), self._confirmed_axes(edge, first)
+            if first_full[6] and not _fixes_position(first[3]):
+                first, edge = None, full  # a rest of an earlier match this one cannot confirm
         if first is None:
             return LoopResult("pending", "loop match with %s (score %.2f) waits for a second "
                               "one to agree" % (where, score), anchor=i, score=score)
-        first_full = first
-        first, edge = self._confirmed_axes(first, edge), self._confirmed_axes(edge, first)
         # the cost of the two together above the cost of either alone: small if they say
         # the same, about their disagreement squared over the stds of the short paths
         # between their ends if not (however much a long loop could absorb of either)
@@ -718,38 +718,38 @@ class PoseGraph:
             self.pending = rest
         return result
 
+    def _to_map(self, i: int) -> np.ndarray:
+        """Rotation of anchor i's frame into the map frame (2 x 2)."""
+        c, s = math.cos(self.poses[i, 2]), math.sin(self.poses[i, 2])
+        return np.array([[c, -s], [s, c]])
+
+    def _projected(self, edge, other, fixed: bool):
+        """``edge`` (i, j, z, sqrt_info, where, score, rest) with its position information
+        kept only in the directions (map frame) where ``other``'s is not zero (``fixed``)
+        or is zero (not ``fixed``): its square-root information times the projection onto
+        them, in edge's anchor frame; and whether those directions are both axes."""
+        w = other[3][:, :2] @ self._to_map(other[0]).T
+        eig, axes = np.linalg.eigh(w.T @ w)
+        some = eig > 1e-9 * max(float(eig.max()), 1e-300)
+        keep = axes[:, some if fixed else ~some]
+        rot = self._to_map(edge[0])
+        proj = np.eye(3) if fixed else np.zeros((3, 3))
+        proj[:2, :2] = rot.T @ (keep @ keep.T) @ rot
+        return (edge[0], edge[1], edge[2], edge[3] @ proj) + tuple(edge[4:]), \
+            keep.shape[1] == 2
+
     def _unconfirmed(self, edge, other):
         """The rest of ``edge`` after a pair with ``other`` closed: its position information
         in the directions (map frame) ``other`` left free, none in heading (that went into
         the pair), flagged as a rest. It waits to be confirmed by the next match."""
-        def to_map(i):
-            c, s = math.cos(self.poses[i, 2]), math.sin(self.poses[i, 2])
-            return np.array([[c, -s], [s, c]])
-        w = other[3][:, :2] @ to_map(other[0]).T
-        eig, axes = np.linalg.eigh(w.T @ w)
-        free = axes[:, eig <= 1e-9 * max(float(eig.max()), 1e-300)]
-        rot = to_map(edge[0])
-        proj = np.zeros((3, 3))
-        proj[:2, :2] = rot.T @ (free @ free.T) @ rot
-        return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5], True)
+        rest, _ = self._projected(edge, other, fixed=False)
+        return rest[:6] + (True,)
 
     def _confirmed_axes(self, edge, other):
-        """``edge`` (i, j, z, sqrt_info, where, score) with its position information kept
-        only in the directions (map frame) where ``other``'s is not zero: its square-root
-        information times the projection onto them, in edge's anchor frame. Both fix
-        both axes: unchanged."""
-        def to_map(i):  # rotation of anchor i's frame into the map frame
-            c, s = math.cos(self.poses[i, 2]), math.sin(self.poses[i, 2])
-            return np.array([[c, -s], [s, c]])
-        w = other[3][:, :2] @ to_map(other[0]).T
-        eig, axes = np.linalg.eigh(w.T @ w)
-        fixed = axes[:, eig > 1e-9 * max(float(eig.max()), 1e-300)]
-        if fixed.shape[1] == 2:
-            return edge
-        rot = to_map(edge[0])
-        proj = np.eye(3)
-        proj[:2, :2] = rot.T @ (fixed @ fixed.T) @ rot  # onto other's fixed directions
-        return (edge[0], edge[1], edge[2], edge[3] @ proj, edge[4], edge[5], edge[6])
+        """``edge`` with its position information kept only in the directions (map frame)
+        where ``other``'s is not zero (heading unchanged). Both fix both axes: unchanged."""
+        projected, both = self._projected(edge, other, fixed=True)
+        return edge if both else projected
 
     def _cost_with(self, loops) -> Tuple[float, np.ndarray]:
         """The graph's sum of squared whitened residuals, optimised with the given loop
