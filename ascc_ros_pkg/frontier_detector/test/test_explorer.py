@@ -241,3 +241,72 @@ def test_move_base_going_away_drops_the_goal():
     assert c.step(1.0, corridor_map(), INFO, ROBOT, 1, False).status == ex.WAITING_MOVE_BASE
     assert c.active_goal is None
     assert c.step(2.0, corridor_map(), INFO, ROBOT, 1, True).action == ex.SEND
+
+
+def drive(c, corners, step_m=0.1):
+    """Record a path through ``corners`` in the controller (its own robot positions)."""
+    for (x0, y0), (x1, y1) in zip(corners[:-1], corners[1:]):
+        n = max(1, int(math.hypot(x1 - x0, y1 - y0) / step_m))
+        for k in range(1, n + 1):
+            c._record((x0 + (x1 - x0) * k / n, y0 + (y1 - y0) * k / n))
+
+
+# a 20 m x 10 m loop driven from (0, 0) back to 3.5 m short of the start, where an
+# explorer turns away (the corridor's seam: its scans only touch the start's there)
+LOOP = [(0.0, 0.0), (20.0, 0.0), (20.0, 10.0), (0.0, 10.0), (0.0, 3.5)]
+
+
+def test_active_loop_closing_finds_where_the_loop_joins():
+    c = started(loop_revisit_path_m=30.0, loop_revisit_radius_m=5.0)
+    drive(c, LOOP[:2])
+    assert c.loop_to_close((20.0, 0.0)) is None          # nothing far back yet
+    drive(c, LOOP[1:])
+    found = c.loop_to_close((0.0, 3.5))
+    assert found is not None
+    (x, y), back_m = found
+    assert math.hypot(x, y) < 0.2                          # the start, 3.5 m away
+    assert 55.0 < back_m < 57.0                            # 56.5 m of path back
+    assert c.loop_to_close((0.0, 3.5)) is None             # once per place
+    off = started(loop_revisit_path_m=30.0, loop_revisit_radius_m=3.0)
+    drive(off, LOOP)
+    assert off.loop_to_close((0.0, 3.5)) is None           # farther than the radius
+
+
+def test_driving_back_along_a_corridor_is_no_loop():
+    """Out 40 m and back: the places passed again lie far back along the path, but the
+    recent path runs over them; nothing to revisit."""
+    c = started(loop_revisit_path_m=30.0, loop_revisit_radius_m=5.0)
+    drive(c, [(0.0, 0.0), (40.0, 0.0)])
+    for x in np.arange(39.0, 4.0, -1.0):
+        drive(c, [(x + 1.0, 0.0), (x, 0.0)])
+        assert c.loop_to_close((x, 0.0)) is None, x
+
+
+def test_active_loop_closing_goal_comes_first_and_is_not_blacklisted():
+    c = started(loop_revisit_path_m=30.0, loop_revisit_radius_m=5.0)
+    drive(c, LOOP)
+    d = c.step(0.0, corridor_map(), INFO, (0.0, 3.5), 1, True)
+    assert d.action == ex.SEND and d.status == ex.EXPLORING
+    assert math.hypot(*d.goal_xy) < 0.2 and "closing a loop" in d.reason
+    assert c.loops_revisited == 1
+    # kept while it lasts, whatever the new maps
+    d = c.step(1.0, corridor_map(), INFO, (0.0, 2.0), 2, True)
+    assert d.action == ex.NONE and d.reason == "closing a loop"
+    c.report_outcome(ex.SUCCEEDED)
+    d = c.step(2.0, corridor_map(), INFO, ROBOT, 3, True)
+    assert d.action == ex.SEND and d.goal_xy[0] > 9.5     # exploring on: the frontier
+    assert c.blacklist == []
+    # not reached within progress_timeout_s: dropped, exploring on
+    t = started(loop_revisit_path_m=30.0, loop_revisit_radius_m=5.0, progress_timeout_s=10.0)
+    drive(t, LOOP)
+    assert t.step(0.0, corridor_map(), INFO, (0.0, 3.5), 1, True).action == ex.SEND
+    assert t.step(5.0, corridor_map(), INFO, (0.0, 3.4), 2, True).action == ex.NONE
+    d = t.step(11.0, corridor_map(), INFO, ROBOT, 3, True)
+    assert d.action == ex.SEND and d.goal_xy[0] > 9.5 and t.blacklist == []
+
+
+def test_active_loop_closing_is_off_by_default():
+    c = started()
+    drive(c, LOOP)
+    d = c.step(0.0, corridor_map(), INFO, (0.0, 3.5), 1, True)
+    assert "closing a loop" not in d.reason

@@ -21,6 +21,15 @@ nothing) and the status to publish. Rules:
 * nothing left to explore (no candidate, all blacklisted, or none worth its trip) on
   `done_confirmations` plans in a row: cancel the goal, go back
   to the start pose if `return_to_start`, then publish `done` and stop;
+* active loop closing (`loop_revisit_path_m` > 0, off by default; after Stachniss, Hähnel
+  and Burgard's exploration with active loop-closing for RBPF mapping): when the robot
+  comes within `loop_revisit_radius_m` of a place on its own path that lies more than
+  `loop_revisit_path_m` back along it, and its recent path (the last `loop_revisit_path_m`)
+  has not come within `LOOP_REVISIT_NEAR_M` of that place, it first drives there, so
+  that the mapper's scans overlap the old ones where the loop joins instead of only
+  touching them; the places within `loop_revisit_radius_m` of that goal are not visited
+  again. The goal is neither blacklisted nor counted as a frontier; it ends with its
+  outcome or after `progress_timeout_s`;
 * start / stop (pause) / resume through `start()` and `stop()`; a stopped explorer cancels
   its goal and sends nothing; start() after done begins a fresh exploration.
 Bad input (no map, robot off the map or not in free space, move_base missing) only changes
@@ -77,6 +86,18 @@ class ExplorerParams:
     done_confirmations: int = param(2, "empty plans in a row before finishing")
     return_to_start: bool = param(False, "drive back to the start pose when done")
     start_tolerance_m: float = param(0.5, "[m] already at the start if closer than this")
+    loop_revisit_path_m: float = param(0.0, "[m] active loop closing: a place on the "
+                                       "robot's path at least this far back along it, met "
+                                       "again, is driven to first (0: off)", ge=0.0)
+    loop_revisit_radius_m: float = param(5.0, "[m] ... when the robot comes this close to "
+                                         "it", gt=0.0)
+
+
+# active loop closing: a place the robot's recent path came this close to is being
+# revisited already (driving back along a corridor just explored is no loop) [m]
+LOOP_REVISIT_NEAR_M = 1.5
+# the robot's path is recorded in steps of this length [m]
+PATH_STEP_M = 0.25
 
 
 @dataclass
@@ -112,6 +133,7 @@ class _Goal:
     best_path_m: float = math.inf
     improved_at: float = 0.0
     to_start: bool = False
+    revisit: bool = False          # active loop closing's goal (not a frontier)
 
 
 @dataclass
@@ -128,6 +150,11 @@ class ExplorationController:
     _empty_plans: int = 0
     _last_map_stamp: Optional[float] = None
     _paused: bool = False
+    loops_revisited: int = 0         # active loop closing's goals sent
+    # the robot's path (x, y, path length [m]) and, per point, whether its place was
+    # revisited (or is being revisited) already
+    _path: List[Tuple[float, float, float]] = field(default_factory=list)
+    _closed: List[bool] = field(default_factory=list)
 
     # ---- commands ---------------------------------------------------------------
     def start(self) -> None:
@@ -135,6 +162,8 @@ class ExplorationController:
         if self.state == DONE:
             self.blacklist.clear()
             self.start_xy = None
+            self._path.clear()
+            self._closed.clear()
         self._paused = False
         self._empty_plans = 0
         self._last_map_stamp = None
@@ -179,6 +208,11 @@ class ExplorationController:
             self.start_xy = (float(robot_xy[0]), float(robot_xy[1]))
         if self.state == RETURNING:
             return Decision(NONE, RETURNING)
+        if self.params.loop_revisit_path_m > 0.0:
+            self._record(robot_xy)
+            revisit = self._revisit(now, robot_xy)
+            if revisit is not None:
+                return revisit
         new_map = map_stamp != self._last_map_stamp
         if self._goal is not None and not new_map and not self._stalled(now):
             return Decision(NONE, EXPLORING)
@@ -193,6 +227,8 @@ class ExplorationController:
         if outcome == PREEMPTED:
             return None                    # we replaced it ourselves
         self._goal = None
+        if goal.revisit:
+            return None                    # loop closed (or not reachable): explore on
         if goal.to_start:
             self.state = DONE
             why = "back at the start pose" if outcome == SUCCEEDED else \
@@ -200,6 +236,76 @@ class ExplorationController:
             return Decision(NONE, DONE, reason=why)
         self.blacklist.append(goal.xy)     # reached or failed: never send it again
         return None
+
+    def _record(self, robot_xy: Tuple[float, float]) -> None:
+        """Append the robot's position to its path every PATH_STEP_M."""
+        x, y = float(robot_xy[0]), float(robot_xy[1])
+        if not self._path:
+            self._path.append((x, y, 0.0))
+            self._closed.append(False)
+            return
+        px, py, s = self._path[-1]
+        step = math.hypot(x - px, y - py)
+        if step >= PATH_STEP_M:
+            self._path.append((x, y, s + step))
+            self._closed.append(False)
+
+    def loop_to_close(self, robot_xy: Tuple[float, float]
+                      ) -> Optional[Tuple[Tuple[float, float], float]]:
+        """Active loop closing's goal and how far back along the path it lies [m], or None:
+        the nearest place of the robot's path at least ``loop_revisit_path_m`` back along
+        it, within ``loop_revisit_radius_m``, not revisited yet, and not near its recent
+        path (module docstring); none while the robot is on such old ground already (within
+        ``LOOP_REVISIT_NEAR_M``). Marks the old places within ``loop_revisit_radius_m`` of
+        the goal (or of the robot, on old ground) as revisited."""
+        p = self.params
+        if len(self._path) < 2:
+            return None
+        path = np.asarray(self._path)
+        closed = np.asarray(self._closed)
+        recent = path[:, 2] > path[-1, 2] - p.loop_revisit_path_m
+        if recent.all():
+            return None
+        d = np.hypot(path[:, 0] - robot_xy[0], path[:, 1] - robot_xy[1])
+        if d[~recent].min() <= LOOP_REVISIT_NEAR_M:
+            # on old ground already (driving back along a corridor): nothing to revisit
+            self._close(~recent & (d <= p.loop_revisit_radius_m))
+            return None
+        candidates = ~recent & ~closed & (d <= p.loop_revisit_radius_m)
+        if not candidates.any():
+            return None
+        k = int(np.argmin(np.where(candidates, d, np.inf)))
+        target = path[k, :2]
+        self._close(~recent & (np.hypot(path[:, 0] - target[0], path[:, 1] - target[1])
+                               <= p.loop_revisit_radius_m))
+        if np.hypot(path[recent, 0] - target[0], path[recent, 1] - target[1]).min() \
+                <= LOOP_REVISIT_NEAR_M:
+            return None                    # the recent path runs on into it
+        return (float(target[0]), float(target[1])), float(path[-1, 2] - path[k, 2])
+
+    def _close(self, mask: np.ndarray) -> None:
+        """Mark the path's places ``mask`` as revisited."""
+        for i in np.nonzero(mask)[0]:
+            self._closed[i] = True
+
+    def _revisit(self, now: float, robot_xy: Tuple[float, float]) -> Optional[Decision]:
+        """Active loop closing: keep its goal while it lasts, or send a new one."""
+        g = self._goal
+        if g is not None and g.revisit:
+            if now - g.sent_at <= self.params.progress_timeout_s:
+                return Decision(NONE, EXPLORING, reason="closing a loop")
+            self._goal = None              # not reached in time: explore on
+            return None
+        found = self.loop_to_close(robot_xy)
+        if found is None:
+            return None
+        target, back_m = found
+        self._goal = _Goal(target, now, improved_at=now, revisit=True)
+        self.goals_sent += 1
+        self.loops_revisited += 1
+        return Decision(SEND, EXPLORING, target,
+                        "closing a loop: back to (%.2f, %.2f), where the robot was %.0f m "
+                        "of path ago" % (target[0], target[1], back_m))
 
     def _stalled(self, now: float) -> bool:
         g = self._goal
