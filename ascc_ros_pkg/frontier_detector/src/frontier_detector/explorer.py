@@ -25,7 +25,8 @@ nothing) and the status to publish. Rules:
   and Burgard's exploration with active loop-closing for RBPF mapping): when the robot
   comes within `loop_revisit_radius_m` of a place on its own path that lies more than
   `loop_revisit_path_m` back along it, and its recent path (the last `loop_revisit_path_m`)
-  has not come within `LOOP_REVISIT_NEAR_M` of that place, it first drives there, so
+  has not come within `LOOP_REVISIT_NEAR_M` of that place, nor is the robot standing on
+  such old ground already (driving back along a corridor), it first drives there, so
   that the mapper's scans overlap the old ones where the loop joins instead of only
   touching them; the places within `loop_revisit_radius_m` of that goal are not visited
   again. The goal is neither blacklisted nor counted as a frontier; it ends with its
