@@ -286,14 +286,13 @@ class ExplorationController:
 
     def _close(self, mask: np.ndarray) -> None:
         """Mark the path's places ``mask`` as revisited."""
-        for i in np.nonzero(mask)[0]:
-            self._closed[i] = True
+        self._closed = (np.asarray(self._closed) | mask).tolist()
 
     def _revisit(self, now: float, robot_xy: Tuple[float, float]) -> Optional[Decision]:
         """Active loop closing: keep its goal while it lasts, or send a new one."""
         g = self._goal
         if g is not None and g.revisit:
-            if now - g.sent_at <= self.params.progress_timeout_s:
+            if not self._stalled(now):     # its improved_at stays the time it was sent
                 return Decision(NONE, EXPLORING, reason="closing a loop")
             self._goal = None              # not reached in time: explore on
             return None
