@@ -28,7 +28,7 @@ from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import mcl
-from ascc_navigation.laser import LaserMount
+from ascc_navigation.ros.laser_tf import mount_from_tf
 
 WARN_PERIOD_S = 5.0  # throttle period of repeated warnings [s]
 DEFAULT_RANGE_MAX_M = 4.0  # z_rand's range when ~laser_max_range is unset (URG-04LX)
@@ -186,9 +186,8 @@ class MclLocalizerNode:
 
     def _mount(self, frame, stamp):
         if frame not in self.mounts:
-            t = self.tf_buffer.lookup_transform(self.base_frame, frame, stamp, self.tf_wait)
-            tr, q = t.transform.translation, t.transform.rotation
-            self.mounts[frame] = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z, q.w)
+            self.mounts[frame] = mount_from_tf(self.tf_buffer, self.base_frame, frame,
+                                               self.tf_wait.to_sec(), stamp)
         return self.mounts[frame]
 
     def _process(self, scan):

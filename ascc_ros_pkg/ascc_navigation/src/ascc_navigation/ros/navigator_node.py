@@ -36,7 +36,7 @@ from ascc_common.paced_timer import PacedTimer
 from ascc_common.params import from_params
 from ascc_common.pose2d import compose, quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import navigation as nav
-from ascc_navigation.laser import LaserMount
+from ascc_navigation.ros.laser_tf import mount_from_tf
 
 WARN_PERIOD_S = 5.0  # throttle period of repeated warnings [s]
 
@@ -267,10 +267,7 @@ class NavigatorNode:
         frame = scan.header.frame_id
         try:
             if frame not in self.mounts:
-                t = self.tf_buffer.lookup_transform(self.base_frame, frame, rospy.Time(0),
-                                                    rospy.Duration(0.05))
-                tr, q = t.transform.translation, t.transform.rotation
-                self.mounts[frame] = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z, q.w)
+                self.mounts[frame] = mount_from_tf(self.tf_buffer, self.base_frame, frame)
         except (tf2_ros.TransformException, ValueError) as e:
             rospy.logwarn_throttle(WARN_PERIOD_S, "move_base: scan frame '%s' unusable: %s"
                                    % (frame, e))

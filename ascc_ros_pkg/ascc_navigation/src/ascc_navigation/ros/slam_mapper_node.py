@@ -30,7 +30,7 @@ from ascc_common.params import from_params
 from ascc_common.pose2d import quaternion_from_yaw, yaw_from_quaternion
 from ascc_navigation import mapper as M
 from ascc_navigation.climb import warm_up
-from ascc_navigation.laser import LaserMount
+from ascc_navigation.ros.laser_tf import mount_from_tf
 
 WARN_PERIOD_S = 5.0  # each kind of warning at most once per this period (wall clock)
 SCAN_BUFFER = 5  # scans waiting for the mapper, oldest dropped first (gmapping's filter: 5)
@@ -202,7 +202,8 @@ class SlamMapperNode:
         try:
             odom = self.tf_buffer.lookup_transform(self.odom_frame, self.base_frame,
                                                    scan.header.stamp)
-            laser = self.tf_buffer.lookup_transform(self.base_frame, frame, scan.header.stamp)
+            mount = mount_from_tf(self.tf_buffer, self.base_frame, frame, 0.0,
+                                  scan.header.stamp)
         except tf2_ros.ExtrapolationException as err:
             if rospy.Time.now() - scan.header.stamp < self.tf_wait:
                 return WAIT  # TF for this stamp has not arrived yet: retry on the next tick
@@ -213,9 +214,6 @@ class SlamMapperNode:
                       "(%s)" % (frame, self.odom_frame, self.base_frame, self.base_frame,
                                 frame, err))
             return DROP
-        tr, q = laser.transform.translation, laser.transform.rotation
-        try:
-            mount = LaserMount.from_transform(tr.x, tr.y, q.x, q.y, q.z, q.w)
         except ValueError as err:
             self.warn("slam_mapper: scan in frame '%s' dropped: %s" % (frame, err))
             return DROP
