@@ -11,6 +11,7 @@ from ascc_common.grid import FREE, OCCUPIED, UNKNOWN, GridInfo
 from ascc_eval.map_quality import (
     QualityParams,
     best_placement,
+    local_placements,
     measure,
     report_lines,
     write_overlay,
@@ -176,3 +177,33 @@ def test_measure_reports_the_placement_and_the_walls_there():
     assert dx == pytest.approx(-0.6, abs=RES + 1e-9) and dy == pytest.approx(0.4, abs=RES + 1e-9)
     assert measure(grid, minfo, plan, info, plan, (A[0] + 1.2, A[1] + 7.0),
                    given).placement is None
+
+
+def test_local_placements_show_where_a_side_mapped_too_long_moves_the_map(tmp_path):
+    """The loop's long sides mapped 0.2 m too long, the map's frame at the plan's: the
+    tiles of the west side lie in place, those of the east side 0.2 m east of theirs and,
+    placed on their own, agree far better than where they are. measure() reports the
+    tiles, the overlay draws them."""
+    plan, info, _ = plan_world()
+    grid, minfo, _ = distorted_map(scale=1.0 + 0.2 / L, rotate_deg=0.0, pose=(0.0, 0.0, 0.0))
+    tiles = local_placements(grid, minfo, plan, info, tile_m=5.0)
+    west = [t for t in tiles if t["centre"][0] < A[0] + WIDTH_M]
+    east = [t for t in tiles if t["centre"][0] > A[0] + L - 1.0]     # the east side's own
+    middle = [t for t in tiles if A[0] + 5.0 < t["centre"][0] < A[0] + L - 5.0]
+    assert len(west) >= 3 and len(east) >= 3 and len(middle) >= 6
+    for t in west:
+        assert np.abs(t["displacement"]).max() <= RES + 1e-9
+        assert t["share"] >= t["share_given"] > 0.95
+    for t in east:
+        assert t["displacement"][0] == pytest.approx(0.2, abs=RES + 1e-9)
+        assert abs(t["displacement"][1]) <= RES + 1e-9
+        assert t["share"] > 0.95 and t["share_given"] < 0.9
+    for t in middle:    # a featureless corridor: along it the tile's place is not observable
+        assert np.abs(t["displacement"]).max() <= RES + 1e-9
+    q = measure(grid, minfo, plan, info, plan, (A[0] + 1.2, A[1] + 7.0), tile_m=5.0)
+    assert [t["displacement"] for t in q.tiles] == [t["displacement"] for t in tiles]
+    text = "\n".join(report_lines(q))
+    assert "map-plan_x" in text and len(text.splitlines()) >= len(tiles) + 1
+    png = tmp_path / "tiles.png"
+    write_overlay(str(png), q, grid, minfo, plan, info, (0.0, 0.0, 0.0))
+    assert png.stat().st_size > 0

@@ -1,7 +1,7 @@
 """Map quality against a world's floor plan, as the thesis reports it (2.5.2, figs. 2.11-2.12).
 
     rosrun ascc_eval map_quality MAP.yaml --world WORLD.yaml [--map-pose X Y YAW]
-        [--png OUT.png] [--json OUT.json] [--no-placement]
+        [--png OUT.png] [--json OUT.json] [--no-placement] [--tiles M]
 
 MAP.yaml is a saved map (map_server format: ``rosrun map_server map_saver``, or a
 benchmark's ``*_explored.yaml``); WORLD.yaml an ascc_sim world, whose map is the floor
@@ -31,8 +31,14 @@ Prints:
     squares; the edge's ends, where the next wall starts, are left out). A side's length
     runs between the intersections with its neighbours' lines, on both; so do the corner
     angles (interior angle of the outline, degrees);
+  * with ``--tiles M``, where each part of the map lies off its true place
+    (``local_placements``): the map cut into M-metre tiles, each placed on its own; each
+    tile's displacement (map minus plan, metres). A side mapped 0.2 m too long shows as
+    every tile after it displaced by 0.2 m;
   * and writes a PNG of the map over the floor plan: plan walls grey, map occupied red,
-    map free light blue, fitted sides (plan green, map blue), corners.
+    map free light blue, fitted sides (plan green, map blue), corners, and with
+    ``--tiles`` each tile's displacement as a purple arrow (``ARROW_GAIN`` times its
+    length).
 
 No ROS import (the command runs without a master).
 """
@@ -43,7 +49,7 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import cv2
@@ -330,6 +336,57 @@ def best_placement(grid: np.ndarray, info: GridInfo, truth: np.ndarray, truth_in
             "agreed_share": float(best), "agreed_share_given": float(given)}
 
 
+def local_placements(grid: np.ndarray, info: GridInfo, truth: np.ndarray, truth_info: GridInfo,
+                     map_pose: Tuple[float, float, float] = (0.0, 0.0, 0.0),
+                     tile_m: float = 10.0, min_known_share: float = 0.05,
+                     params: Optional[QualityParams] = None) -> List[Dict[str, object]]:
+    """Where each part of the map fits the truth best: the map's grid cut into square tiles
+    of ``tile_m`` (an unrotated grid's at whole multiples of it in its frame), each tile with at
+    least ``min_known_share`` of a whole tile's cells known placed on its own
+    (``best_placement``, translation only: a turn about the map's frame would move a far
+    tile by the turn times its distance). A map whose frame is right but whose shape is
+    not (a side mapped too long moves every wall after it) shows, tile by tile, how far and
+    which way each part of it lies off its true place. Along a straight corridor with no
+    feature a tile's shift along it is not observable: the search then leaves it at zero.
+    Returns one dict per tile: ``centre`` (x, y of the tile's known cells' centre, in the
+    truth's frame [m]), ``known`` (cells), ``displacement`` (the tile's place in the map
+    minus its place in the truth, x and y [m]: the opposite of the shift that fits it),
+    ``share`` (its known cells that agree there) and ``share_given`` (at ``map_pose``)."""
+    p = params or QualityParams()
+    p_local = replace(p, placement_search_rad=0.0)
+    n = max(1, int(round(tile_m / info.resolution)))
+    known = grid != UNKNOWN
+    c, s = math.cos(info.origin_yaw), math.sin(info.origin_yaw)
+    mc, ms = math.cos(map_pose[2]), math.sin(map_pose[2])
+    def edges(origin, size):
+        first = int(round((math.ceil(origin / tile_m - 1e-9) * tile_m - origin)
+                          / info.resolution)) % n
+        return sorted({0, size} | set(range(first, size, n)))
+
+    tiles = []
+    rows_e, cols_e = edges(info.origin_y, grid.shape[0]), edges(info.origin_x, grid.shape[1])
+    for r0, r1 in zip(rows_e[:-1], rows_e[1:]):
+        for c0, c1 in zip(cols_e[:-1], cols_e[1:]):
+            sub = grid[r0:r1, c0:c1]
+            k = int(known[r0:r1, c0:c1].sum())
+            if k == 0 or k < min_known_share * n * n:
+                continue
+            ox, oy = c0 * info.resolution, r0 * info.resolution
+            sub_info = GridInfo(info.resolution, sub.shape[1], sub.shape[0],
+                                info.origin_x + c * ox - s * oy, info.origin_y + s * ox + c * oy,
+                                info.origin_yaw)
+            pl = best_placement(sub, sub_info, truth, truth_info, map_pose, p_local)
+            rows, cols = np.nonzero(sub != UNKNOWN)
+            x, y = sub_info.cell_to_world(cols, rows)
+            cx, cy = float(np.mean(x)), float(np.mean(y))
+            tiles.append({"centre": [map_pose[0] + mc * cx - ms * cy,
+                                     map_pose[1] + ms * cx + mc * cy],
+                          "known": k,
+                          "displacement": [-pl["offset"][0], -pl["offset"][1]],
+                          "share": pl["agreed_share"], "share_given": pl["agreed_share_given"]})
+    return tiles
+
+
 @dataclass
 class Quality:
     agreement: Dict[str, float]
@@ -337,6 +394,8 @@ class Quality:
     outlines: List[Outline]
     # best_placement, with the wall agreement there (None: not searched)
     placement: Optional[Dict[str, object]] = None
+    # local_placements (None: not searched)
+    tiles: Optional[List[Dict[str, object]]] = None
 
     def sides(self) -> List[Dict[str, object]]:
         rows = []
@@ -367,10 +426,12 @@ class Quality:
 def measure(grid: np.ndarray, info: GridInfo, plan: np.ndarray, plan_info: GridInfo,
             truth: np.ndarray, start_xy: Tuple[float, float],
             map_pose: Tuple[float, float, float] = (0.0, 0.0, 0.0),
-            params: Optional[QualityParams] = None, place: bool = False) -> Quality:
+            params: Optional[QualityParams] = None, place: bool = False,
+            tile_m: Optional[float] = None) -> Quality:
     """All numbers for a map (grid, info in its own frame at map_pose in the plan's frame);
     with ``place``, also its ``best_placement`` and the walls' agreement there (the
-    sides and corners do not depend on the placement)."""
+    sides and corners do not depend on the placement); with ``tile_m``, its tiles'
+    ``local_placements``."""
     p = params or QualityParams()
     minfo = compose(map_pose, info)
     agreement = map_agreement(grid, info, truth, plan_info, map_pose)
@@ -390,7 +451,10 @@ def measure(grid: np.ndarray, info: GridInfo, plan: np.ndarray, plan_info: GridI
         placement["walls"] = wall_agreement(plan, plan_info, grid,
                                             compose(tuple(placement["pose"]), info),
                                             p.wall_tolerance_cells)
-    return Quality(agreement, walls, outs, placement)
+    tiles = None
+    if tile_m is not None:
+        tiles = local_placements(grid, info, truth, plan_info, map_pose, tile_m, params=p)
+    return Quality(agreement, walls, outs, placement, tiles)
 
 
 def _fmt(v: Optional[float], spec: str) -> str:
@@ -424,7 +488,19 @@ def report_lines(q: Quality) -> List[str]:
         lines.append(f"{r['outline']:7d} {r['side']:4d} {_fmt(pm, '8.2f')} {_fmt(mm, '8.2f')} "
                      f"{_fmt(dm, '7.2f')} {_fmt(dp, '7.2f')}  | {r['corner']:6d} "
                      f"{_fmt(pd, '9.1f')} {_fmt(md, '8.1f')} {_fmt(dd, '9.2f')}")
+    if q.tiles is not None:
+        lines.append("tile   centre_x centre_y  known  map-plan_x map-plan_y  agree_%  "
+                     "agree_there_%")
+        for i, t in enumerate(q.tiles):
+            lines.append(f"{i:4d} {t['centre'][0]:10.2f} {t['centre'][1]:8.2f} "
+                         f"{t['known']:6d} {t['displacement'][0]:+11.3f} "
+                         f"{t['displacement'][1]:+10.3f} {100 * t['share_given']:8.1f} "
+                         f"{100 * t['share']:14.1f}")
     return lines
+
+
+# the overlay draws each tile's displacement this many times its length
+ARROW_GAIN = 20.0
 
 
 def write_overlay(path: str, q: Quality, grid: np.ndarray, info: GridInfo, plan: np.ndarray,
@@ -461,6 +537,13 @@ def write_overlay(path: str, q: Quality, grid: np.ndarray, info: GridInfo, plan:
             for c in corners:
                 if c is not None:
                     cv2.circle(img, px(c), 3 * thick, colour, thick, cv2.LINE_AA)
+    for t in q.tiles or []:       # each tile's displacement, map minus plan, ARROW_GAIN x
+        a = np.asarray(t["centre"], float)
+        b = a + ARROW_GAIN * np.asarray(t["displacement"], float)
+        cv2.circle(img, px(a), 2 * thick, (160, 0, 160), -1, cv2.LINE_AA)
+        if np.hypot(*(b - a)) > 1e-9:
+            cv2.arrowedLine(img, px(a), px(b), (160, 0, 160), thick, cv2.LINE_AA,
+                            tipLength=0.25)
     if not cv2.imwrite(path, img):
         raise OSError(f"cannot write {path}")
 
@@ -476,6 +559,10 @@ def main(argv: Optional[List[str]] = None) -> int:
     ap.add_argument("--json", help="also write the numbers as JSON here")
     ap.add_argument("--no-placement", action="store_true",
                     help="skip the search for the map's best placement (a few seconds)")
+    ap.add_argument("--tiles", type=float, metavar="M",
+                    help="also place the map's square tiles of M metres each on its own and "
+                    "print each tile's displacement, map minus plan (local_placements; the "
+                    "overlay draws them as arrows, %g times their length)" % ARROW_GAIN)
     args = ap.parse_args(argv)
     from ascc_sim.world import WorldError, load_world  # ascc_sim: only for the command
     try:
@@ -494,7 +581,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     start_xy = (start.x, start.y) if start is not None else pose[:2]
     plan, pinfo = world.map.occupancy, world.map.info
     q = measure(grid, info, plan, pinfo, world.truth_map.occupancy, start_xy, pose,
-                place=not args.no_placement)
+                place=not args.no_placement, tile_m=args.tiles)
     print(f"map {args.map_yaml}: {grid.shape[1]} x {grid.shape[0]} cells at "
           f"{info.resolution} m, frame at ({pose[0]:.3f}, {pose[1]:.3f}, {pose[2]:.4f}) in "
           f"world {world.name}")
@@ -506,5 +593,5 @@ def main(argv: Optional[List[str]] = None) -> int:
     if args.json:
         with open(args.json, "w", encoding="utf-8") as f:
             json.dump({"agreement": q.agreement, "walls": q.walls, "sides": q.sides(),
-                       "placement": q.placement}, f, indent=1)
+                       "placement": q.placement, "tiles": q.tiles}, f, indent=1)
     return 0
