@@ -722,7 +722,18 @@ def test_each_particles_trajectory_rebuilds_its_map_after_resampling():
     slam.start(truth[0], scans[0])
     resampled = 0
     for k in range(1, len(truth)):
-        resampled += slam.update(P.relative(truth[k - 1], truth[k]), scans[k]).resampled
+        before = slam.poses.copy()
+        delta = P.relative(truth[k - 1], truth[k])
+        stats = slam.update(delta, scans[k])
+        resampled += stats.resampled
+        # what the update reports of its steps: the draws, the matched poses, the ancestry
+        np.testing.assert_array_equal(stats.odom_delta, delta)
+        assert stats.sampled_poses.shape == stats.weighed_poses.shape == (cfg.particles, 3)
+        assert np.abs(stats.sampled_poses[:, :2] - before[:, :2]).max() < 0.5
+        if stats.resampled:
+            np.testing.assert_array_equal(slam.poses, stats.weighed_poses[stats.resampled_from])
+        else:
+            assert stats.resampled_from is None
     assert resampled >= 5
     for p in (slam.best, (slam.best + 3) % cfg.particles):
         traj = slam.trajectory(particle=p)
@@ -791,6 +802,38 @@ def test_adaptive_prior_along_pulls_where_the_scan_is_blind_along_the_heading():
     assert abs(along) < 0.01                                  # the scan's
     stats, full, along = step(room, start, end, (14, 10), False)
     assert stats.along_pull == full and along > 0.02          # the fixed pull holds it
+
+
+@pytest.mark.parametrize("oblique", [0.5, -0.6])
+def test_blind_prior_along_pulls_along_the_corridor_when_the_robot_drives_obliquely(oblique):
+    # prior_along_blind: the pull tops up the scan's least-held direction, not the heading.
+    # Driving obliquely down a featureless corridor the heading's information includes the
+    # corridor's across, so the heading's pull is mostly off, and little holds the
+    # corridor's axis; the blind pull is the full prior_along along that axis (its angle from the
+    # heading -oblique), and still lets the scan correct an error across the corridor.
+    def step(blind, offset_world):
+        cfg = R.RbpfConfig(particles=1, xmin=0, ymin=0, xmax=40, ymax=3, srr=0.0, srt=0.0,
+                           str=0.0, stt=0.0, motion_prior=0.0, prior_along=15.0,
+                           prior_along_adaptive=True, prior_along_blind=blind)
+        slam = R.RbpfSlam(cfg, seed=0)
+        kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+        true0 = np.array([10.0, 1.5, oblique])
+        true1 = P.compose(true0, [0.25, 0.0, 0.0])
+        slam.start(true0, _prepare(_room_scan(true0, world=corridor), **kw))
+        wrong = true1 + [offset_world[0], offset_world[1], 0.0]
+        stats = slam.update(P.relative(true0, wrong),
+                            _prepare(_room_scan(true1, world=corridor), **kw))
+        full = cfg.prior_along / cfg.prior_min_xy ** 2      # srr 0: the floor's variance
+        return stats, full, slam.best_pose - true1
+
+    corridor = _corridor_world()
+    stats, full, _ = step(False, (0.0, 0.0))
+    assert stats.along_info > full and stats.along_pull < 0.5 * full  # heading: mostly off
+    stats, full, _ = step(True, (0.0, 0.0))
+    assert stats.along_info < 1e-2 * full and stats.along_pull > 0.99 * full
+    assert stats.along_angle == pytest.approx(-oblique, abs=0.02)      # the corridor's axis
+    stats, full, err = step(True, (0.0, 0.05))                # 5 cm across the corridor
+    assert abs(err[1]) < 0.015                                # the scan corrects it
 
 
 def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1), **cfg_kw):

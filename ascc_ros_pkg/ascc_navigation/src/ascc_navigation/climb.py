@@ -6,7 +6,8 @@ around the current pose (+-x, +-y by the step times ``lstep``, +-theta by the st
 ``astep``); take the best if it improves the objective, else halve the step; stop after
 ``iterations`` halvings (or ``max_steps`` tries). Objective: the match score
 sum_b exp(-d_b^2 / (2 sigma^2)) minus sum_k prior[k] * (pose_k - start_k)^2 minus
-along * ((pose - start)_xy . h)^2, h the unit vector of the start's heading; d_b is the
+along * ((pose - start)_xy . h)^2, h the unit vector of the start's heading (turned by
+``along_angle``); d_b is the
 bilinear distance of end point b to the particle's map (``rbpf._LikelihoodFields``), from
 the four corners of its cell in the distance image.
 
@@ -160,16 +161,16 @@ def _six_scores(g, base, x, y, theta, dl, da, mx, my, out):
 
 
 @njit(cache=True, nogil=True)
-def _climb(g, band, mx, my, start, particles, prior, along, unit, iterations, max_steps,
-           pose, score):
+def _climb(g, band, mx, my, start, particles, prior, along, along_angle, unit, iterations,
+           max_steps, pose, score):
     """The search for every start pose (rows of ``start``), results into pose and score."""
     w = g[1]
     scores = np.empty(6)
     for i in range(start.shape[0]):
         base = particles[i] * band * w
         sx, sy, st = start[i, 0], start[i, 1], start[i, 2]
-        hx = math.cos(st)
-        hy = math.sin(st)
+        hx = math.cos(st + along_angle)
+        hy = math.sin(st + along_angle)
         px, py, pt = sx, sy, st
         sc = _score(g, base, px, py, pt, mx, my)
         best = sc
@@ -396,7 +397,7 @@ def end_points(pts: np.ndarray, res: float) -> Tuple[np.ndarray, np.ndarray]:
 
 def hill_climb(fields, pts: np.ndarray, prior: np.ndarray, start: np.ndarray,
                particles: np.ndarray, lstep: float, astep: float, iterations: int,
-               sigma: float, max_steps: int, along: float = 0.0
+               sigma: float, max_steps: int, along: float = 0.0, along_angle: float = 0.0
                ) -> Tuple[np.ndarray, np.ndarray]:
     """The search (module docstring) for the poses ``start`` (n, 3, map frame) in the maps
     of ``particles`` (n,), end points ``pts`` (M, 2, base frame [m]) in the likelihood
@@ -409,7 +410,7 @@ def hill_climb(fields, pts: np.ndarray, prior: np.ndarray, start: np.ndarray,
     _climb(geometry(fields, sigma), int(fields.band), mx, my,
            np.ascontiguousarray(start, dtype=np.float64),
            np.ascontiguousarray(particles, dtype=np.int64),
-           np.asarray(prior, dtype=np.float64), float(along),
+           np.asarray(prior, dtype=np.float64), float(along), float(along_angle),
            np.array([lstep, lstep, astep], dtype=np.float64), int(iterations), int(max_steps),
            pose, score)
     return pose, score

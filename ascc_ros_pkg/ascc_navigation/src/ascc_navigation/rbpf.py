@@ -107,6 +107,16 @@ class RbpfConfig:
     prior_along_adaptive: bool = param(False, "prior_along tops up the scan's own "
                                        "information along the heading instead of adding "
                                        "to it (not gmapping)")
+    # Not in gmapping: with prior_along_adaptive, the pull along the direction the scan
+    # holds least (the eigenvector of the smallest eigenvalue of its position information,
+    # for the best particle), topping up that eigenvalue, instead of along the heading. They
+    # are the same while the robot drives along a corridor; while it turns or drives
+    # obliquely, the heading's information includes the corridor's across (the pull is
+    # then off) and the corridor's axis, which the scan does not see, is held by nothing
+    # but motion_prior.
+    prior_along_blind: bool = param(False, "with prior_along_adaptive: pull along the "
+                                    "scan's least-held direction instead of the heading "
+                                    "(not gmapping)")
     prior_min_xy: float = 0.02      # [m]
     prior_min_theta: float = 0.02   # [rad]
     # Not in gmapping: beams longer than maxUrange - (distance moved + this margin) are not
@@ -239,10 +249,15 @@ class UpdateStats:
     along_info: float = 0.0    # [1/m^2] the scan's information along the best particle's
                                # heading (prior_along_adaptive only)
     along_pull: float = 0.0    # [beams/m^2] the along pull the matcher used
+    along_angle: float = 0.0   # [rad] its direction from the heading (prior_along_blind)
     grown: bool = False        # the map grew
     log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
                                                 # / ogain, added to the log weights
     weighed_poses: Optional[np.ndarray] = None  # (N, 3) the poses weighed (before resampling)
+    odom_delta: Optional[np.ndarray] = None     # the odometry increment (dx, dy, dtheta)
+    sampled_poses: Optional[np.ndarray] = None  # (N, 3) the motion model's draws
+    resampled_from: Optional[np.ndarray] = None  # (N,) resampling: each particle's index
+                                                 # before it (None: not resampled)
     # wall-axis prior: the scan's wall direction [rad, base frame, modulo a right angle]
     # (None: no straight walls, or the prior is off) and whether it weighed the particles
     wall_axis: Optional[float] = None
@@ -743,6 +758,8 @@ class RbpfSlam:
         stats = UpdateStats()
         odom_delta = np.asarray(odom_delta, dtype=float)
         self.poses = sample_motion(self.poses, odom_delta, cfg, self.rng)
+        stats.odom_delta = odom_delta
+        stats.sampled_poses = self.poses.copy()
         reach = scan.max_urange - math.hypot(odom_delta[0], odom_delta[1]) - cfg.new_area_margin
         use = scan.match_range <= reach
         if cfg.seen_margin_m >= 0.0 and self._previous is not None:
@@ -757,12 +774,13 @@ class RbpfSlam:
                                + [max(s_th, cfg.prior_min_theta) ** -2])
             along = cfg.prior_along * inv_var[0]
             if cfg.prior_along_adaptive and along > 0.0:
-                stats.along_info = self._along_information(fields, pts)
+                stats.along_info, stats.along_angle = self._along_information(
+                    fields, pts, cfg.prior_along_blind)
                 along = max(0.0, along - 0.5 * stats.along_info)
             stats.along_pull = along
             matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var,
                                               self.poses, np.arange(cfg.particles),
-                                              along=along)
+                                              along=along, along_angle=stats.along_angle)
             recovered = np.zeros(cfg.particles, dtype=bool)
             if cfg.recover_score > 0.0:
                 stats.recovered = self._recover(matched, score, pts, recovered)
@@ -794,6 +812,7 @@ class RbpfSlam:
         self.best = int(np.argmax(weights))
         if stats.neff < cfg.resample_threshold * cfg.particles:
             idx = low_variance_resample(weights, self.rng)
+            stats.resampled_from = idx
             self.poses = self.poses[idx]
             self.maps.select(idx)
             self._history[:, :self.updates] = self._history[idx, :self.updates]
@@ -807,14 +826,23 @@ class RbpfSlam:
         self.updates += 1
         return stats
 
-    def _along_information(self, fields: _LikelihoodFields, pts: np.ndarray) -> float:
+    def _along_information(self, fields: _LikelihoodFields, pts: np.ndarray,
+                           blind: bool = False) -> Tuple[float, float]:
         """The scan's information [1/m^2] about the position along the best particle's
-        heading, at its sampled pose in its own map: h^T I_xy h (``scan_information``)."""
+        heading, at its sampled pose in its own map: h^T I_xy h (``scan_information``), and
+        0.0; with ``blind``, its smallest eigenvalue instead, and the angle [rad] of that
+        eigenvector from the heading (in (-pi/2, pi/2])."""
         b = self.best
         pose = self.poses[b:b + 1]
         info = scan_information(*fields.gradients(pose, np.array([b]), pts), self.cfg.sigma)[0]
+        if blind:
+            values, vectors = np.linalg.eigh(info[:2, :2])
+            v = vectors[:, 0]
+            angle = math.atan2(v[1], v[0]) - pose[0, 2]
+            angle = math.atan(math.tan(angle))  # the direction, not its sense
+            return float(values[0]), float(angle)
         h = np.array([math.cos(pose[0, 2]), math.sin(pose[0, 2])])
-        return float(h @ info[:2, :2] @ h)
+        return float(h @ info[:2, :2] @ h), 0.0
 
     @staticmethod
     def _wall_axis(scan: PreparedScan) -> Optional[float]:
@@ -885,15 +913,17 @@ class RbpfSlam:
 
     def _hill_climb(self, fields: _LikelihoodFields, pts: np.ndarray, prior: np.ndarray,
                     start: np.ndarray, particles: np.ndarray,
-                    along: float = 0.0) -> Tuple[np.ndarray, np.ndarray]:
+                    along: float = 0.0, along_angle: float = 0.0
+                    ) -> Tuple[np.ndarray, np.ndarray]:
         """gmapping-style greedy search (``climb``, compiled), pose i from start[i] in the
         map of particle particles[i]: the six moves around the current pose, the best taken
         if it improves the objective, else that pose's steps halved, ``iterations``
         halvings. Objective: match score minus sum_k prior[k] * (pose_k - start_k)^2 minus
-        along * ((pose - start)_xy . h_i)^2, h_i the unit vector of start[i]'s heading.
-        Returns the poses and their match scores."""
+        along * ((pose - start)_xy . h_i)^2, h_i the unit vector of start[i]'s heading
+        turned by ``along_angle``. Returns the poses and their match scores."""
         cfg = self.cfg
         pose, score = hill_climb(fields, pts, prior, start, particles, cfg.lstep, cfg.astep,
-                                 cfg.iterations, cfg.sigma, MAX_CLIMB_STEPS, along)
+                                 cfg.iterations, cfg.sigma, MAX_CLIMB_STEPS, along,
+                                 along_angle)
         pose[:, 2] = wrap_angle(pose[:, 2])
         return pose, score
