@@ -35,6 +35,14 @@ whose headings differ by a few hundredths of a radian, each consistent with its 
 how a corridor map breaks: the resampling keeps one of them by chance
 (docs/results/ascc_navigation.md, "How a corridor map breaks").
 
+With ``--lineage`` each replay prints how far the map's own path (the final best particle's
+lineage, the poses its map was built from) travelled along its heading beyond the odometry,
+and where that came from: the motion model's draws that survived the resampling (the
+weights' preference) and the matcher's corrections to them, per kind of update (straight or
+turning; with the pull along the travel on or off). A map whose sides come out long has a
+lineage that went further than the wheels; this tells the filter's two steps apart
+(docs/results/ascc_navigation.md, "Every part of the map is right").
+
 The online mapper sees the same data but has to keep up with the clock: it drops scans whose
 TF arrives more than ``tf_wait_s`` late. ``--drop-late-s`` emulates that from the bag's receive
 times. So a map that is bad online and good in the replay points at the load, not at the
@@ -44,6 +52,7 @@ filter.
         [--out DIR]  (writes the replayed maps as map_server YAML + PGM)
         [--online-every-s 40] [--start-turn] [--seeds]  (no --seeds value: no replay)
         [--track-every-s 10]  (the replay's own error and its particles' heading spread)
+        [--lineage]  (the map's path beyond the odometry: surviving draws and the matcher)
 """
 import argparse
 import math
@@ -295,10 +304,48 @@ def track_row(t, true, best, particles):
             float(wrap_angle(best[2] - true[2])), float(head.min()), float(head.max()))
 
 
-def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=None):
+TURNING_RAD = 0.05  # lineage_travel: an update whose odometry turned more is "turning"
+
+
+def lineage_travel(steps, best):
+    """Where the travel of particle ``best``'s lineage along its heading beyond the odometry
+    came from. ``steps``: per filter update, in order, (poses before it (N, 3), odometry
+    increment (dx, dy, dtheta), the motion model's draws (N, 3), the matched poses (N, 3),
+    each particle's index before the resampling (N,) or None, the along pull used). Going
+    back from ``best`` after the last update through the resamplings, each update adds to
+    its kind ("straight" / "turning" by TURNING_RAD, "pull" / "no pull"): the odometry's
+    forward step [m], the draw's offset from the odometry's prediction along the previous
+    heading ("noise": the draws that survived), and the matcher's correction along it
+    ("matcher"). Returns {kind: {"updates", "odometry_m", "noise_m", "matcher_m"}} plus the
+    same summed under "all"."""
+    kinds = {}
+    b = best
+    for prev, delta, sampled, matched, came_from, pull in reversed(steps):
+        j = b if came_from is None else int(came_from[b])
+        p0 = prev[j]
+        c, s = math.cos(p0[2]), math.sin(p0[2])
+        pred = compose(p0, delta)
+        noise = (sampled[j, 0] - pred[0]) * c + (sampled[j, 1] - pred[1]) * s
+        match = (matched[j, 0] - sampled[j, 0]) * c + (matched[j, 1] - sampled[j, 1]) * s
+        kind = "%s, %s" % ("turning" if abs(delta[2]) > TURNING_RAD else "straight",
+                           "pull" if pull > 0.0 else "no pull")
+        for k in (kind, "all"):
+            d = kinds.setdefault(k, {"updates": 0, "odometry_m": 0.0, "noise_m": 0.0,
+                                     "matcher_m": 0.0})
+            d["updates"] += 1
+            d["odometry_m"] += float(delta[0])
+            d["noise_m"] += float(noise)
+            d["matcher_m"] += float(match)
+        b = j
+    return kinds
+
+
+def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=None,
+           lineage=False):
     """One replay with filter ``seed``; ``late`` = run.tf_lateness() (used if drop_late_s > 0).
     With ``track_every_s`` > 0, ``on_track(row)`` gets a ``track_row`` at the first filter
-    update after every ``track_every_s`` [s] of the run (from the first scan)."""
+    update after every ``track_every_s`` [s] of the run (from the first scan). With
+    ``lineage``, the result's "lineage" is ``lineage_travel`` of the final best particle."""
     mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
     world_from_map = None
     map_from_world = None
@@ -311,10 +358,17 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
     dropped = 0 if skip is None else int(skip.sum())
     loops = {}  # the pose graph's loop searches (loop_closure on): status -> count
     last_loop = {}  # status -> the reason of its last one
+    steps = []
     for stamp, scan, odom in run.mapper_inputs(skip):
+        prev = mapper.slam.poses.copy() if lineage and mapper.slam.initialized else None
         c0 = time.process_time()
         out = mapper.handle_scan(scan, odom, run.mount)
         cpu += time.process_time() - c0
+        if prev is not None and out.status == M.UPDATED and out.stats.sampled_poses is not None:
+            st = out.stats
+            matched = st.sampled_poses if st.weighed_poses is None else st.weighed_poses
+            steps.append((prev, np.asarray(st.odom_delta, float), st.sampled_poses, matched,
+                          st.resampled_from, st.along_pull))
         if out.loop is not None and out.loop.status != "none":
             loops[out.loop.status] = loops.get(out.loop.status, 0) + 1
             last_loop[out.loop.status] = out.loop.reason
@@ -339,6 +393,8 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
     result = {"seed": seed, "updates": updates, "dropped": dropped,
               "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info,
               "loop_closure": mapper.cfg.loop.enabled, "loops": loops, "last_loop": last_loop}
+    if lineage:
+        result["lineage"] = lineage_travel(steps, mapper.slam.best)
     if errors:
         e = np.asarray(errors)
         result.update(max_err=float(e[:, 0].max()), mean_err=float(e[:, 0].mean()),
@@ -378,6 +434,9 @@ def main():
     ap.add_argument("--track-every-s", type=float, default=0.0,
                     help="print each replay's estimate against the truth every this many "
                          "seconds of the run, with its particles' heading spread; 0: off")
+    ap.add_argument("--lineage", action="store_true",
+                    help="print how far each replay's map path went along its heading beyond "
+                         "the odometry: surviving motion draws and matcher corrections")
     ap.add_argument("--start-turn", action="store_true",
                     help="print how the recorded mapper went through the run's first turn "
                          "on the spot: filter updates per radian and its error after it")
@@ -440,7 +499,7 @@ def replay_seeds(run, params, args, late):
                                           "particles"))
         r = replay(run, params, seed, args.drop_late_s, late, args.track_every_s,
                    lambda row: print("%7.0f %7.1f %6.1f %5.2f %9.2fm %7.3f %7.3f ..%6.3f"
-                                     % row, flush=True))
+                                     % row, flush=True), lineage=args.lineage)
         if args.track_every_s > 0:
             print(header)
         print("%4d %7d %7d %6.1f %7.2fm %7.2fm %7.2fm %7.1fd %7.2f%% %9.2f%%" % (
@@ -452,6 +511,10 @@ def replay_seeds(run, params, args, late):
             print("     loop closure: %s" % (", ".join(
                 "%s %d (last: %s)" % (k, v, r["last_loop"][k])
                 for k, v in sorted(r["loops"].items())) or "no loop found"))
+        for kind, d in sorted(r.get("lineage", {}).items()):
+            print("     lineage beyond the odometry, %-18s %5d updates, odometry %7.1f m: "
+                  "surviving draws %+.3f m, matcher %+.3f m"
+                  % (kind + ":", d["updates"], d["odometry_m"], d["noise_m"], d["matcher_m"]))
         sys.stdout.flush()
         if args.out:
             os.makedirs(args.out, exist_ok=True)

@@ -5,6 +5,7 @@ import math
 import os
 import sys
 
+import numpy as np
 import pytest
 
 rosbag = pytest.importorskip("rosbag")
@@ -206,3 +207,40 @@ def test_replay_counts_the_loop_searches_when_loop_closure_is_on(tmp_path):
     assert set(on["loops"]) <= {"rejected", "kept", "closed"}
     assert set(on["last_loop"]) == set(on["loops"])
     assert all(on["last_loop"][k] for k in on["loops"])  # every status names its reason
+
+
+def test_lineage_travel_follows_the_best_particle_back_through_the_resamplings():
+    """Three particles, four updates (the third turning, the second resampled): each
+    particle's draw lies ``noise[i]`` ahead of the odometry's prediction along its heading
+    and the matcher moves it ``match[i]`` further; the final best particle descends from
+    particle 2 before the resampling, so its lineage sums particle 2's offsets before it and
+    its own after it, split by the kind of update."""
+    from ascc_common.pose2d import compose as comp
+    noise = [0.001, -0.002, 0.004]
+    match = [0.0005, 0.003, -0.001]
+    deltas = [(0.25, 0.0, 0.0), (0.25, 0.01, 0.02), (0.1, 0.0, 0.2), (0.25, 0.0, 0.0)]
+    came_from = [None, [2, 2, 0], None, None]
+    pulls = [1.0, 1.0, 0.0, 1.0]
+    poses = [[0.0, 0.0, 0.3], [0.1, 0.0, 0.31], [0.0, 0.1, 0.29]]
+    steps = []
+    for delta, idx, pull in zip(deltas, came_from, pulls):
+        prev = [list(p) for p in poses]
+        sampled, matched = [], []
+        for i, p in enumerate(prev):
+            pred = comp(p, delta)
+            h = (math.cos(p[2]), math.sin(p[2]))
+            sampled.append([pred[0] + noise[i] * h[0], pred[1] + noise[i] * h[1], pred[2]])
+            m = match[i]
+            matched.append([sampled[i][0] + m * h[0], sampled[i][1] + m * h[1], pred[2]])
+        steps.append((np.array(prev), np.array(delta), np.array(sampled), np.array(matched),
+                      None if idx is None else np.array(idx), pull))
+        poses = [matched[j] for j in (idx if idx is not None else range(3))]
+    kinds = replay_mapper.lineage_travel(steps, best=1)
+    # best 1 after update 2 came from 2: updates 1-2 particle 2, updates 3-4 particle 1
+    assert kinds["all"]["updates"] == 4
+    assert kinds["all"]["odometry_m"] == pytest.approx(0.85)
+    assert kinds["all"]["noise_m"] == pytest.approx(2 * noise[2] + 2 * noise[1])
+    assert kinds["all"]["matcher_m"] == pytest.approx(2 * match[2] + 2 * match[1])
+    assert kinds["turning, no pull"]["updates"] == 1
+    assert kinds["turning, no pull"]["noise_m"] == pytest.approx(noise[1])
+    assert kinds["straight, pull"]["matcher_m"] == pytest.approx(2 * match[2] + match[1])
