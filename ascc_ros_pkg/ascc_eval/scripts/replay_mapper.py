@@ -39,7 +39,8 @@ With ``--lineage`` each replay prints how far the map's own path (the final best
 lineage, the poses its map was built from) travelled along its heading beyond the odometry,
 and where that came from: the motion model's draws that survived the resampling (the
 weights' preference) and the matcher's corrections to them, per kind of update (straight or
-turning; with the pull along the travel on or off). A map whose sides come out long has a
+turning; with the pull along the travel on or off; with the heading along the walls or
+oblique to them, by the wall-axis prior's reference). A map whose sides come out long has a
 lineage that went further than the wheels; this tells the filter's two steps apart
 (docs/results/ascc_navigation.md, "Every part of the map is right").
 
@@ -83,6 +84,7 @@ from ascc_common.pose2d import (  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation.grid import map_agreement  # noqa: E402
 from ascc_navigation.laser import LaserMount  # noqa: E402
+from ascc_navigation.wall_axes import wrap_right_angle  # noqa: E402
 
 GLITCH_WINDOW_S = 5.0  # running median window of the odometry's slow heading drift
 START_TURN_WITHIN_S = 25.0  # [s] --start-turn looks for the turn this long from the start
@@ -305,9 +307,10 @@ def track_row(t, true, best, particles):
 
 
 TURNING_RAD = 0.05  # lineage_travel: an update whose odometry turned more is "turning"
+OBLIQUE_RAD = 0.4   # lineage_travel: a heading this far off the walls' axes is "oblique"
 
 
-def lineage_travel(steps, best):
+def lineage_travel(steps, best, wall_reference=None):
     """Where the travel of particle ``best``'s lineage along its heading beyond the odometry
     came from. ``steps``: per filter update, in order, (poses before it (N, 3), odometry
     increment (dx, dy, dtheta), the motion model's draws (N, 3), the matched poses (N, 3),
@@ -316,8 +319,10 @@ def lineage_travel(steps, best):
     its kind ("straight" / "turning" by TURNING_RAD, "pull" / "no pull"): the odometry's
     forward step [m], the draw's offset from the odometry's prediction along the previous
     heading ("noise": the draws that survived), and the matcher's correction along it
-    ("matcher"). Returns {kind: {"updates", "odometry_m", "noise_m", "matcher_m"}} plus the
-    same summed under "all"."""
+    ("matcher"). With ``wall_reference`` (the filter's wall-axis reference direction
+    [rad]), each update also adds to "aligned" or "oblique": its heading within or beyond
+    OBLIQUE_RAD of the walls' axes (modulo a right angle). Returns {kind: {"updates",
+    "odometry_m", "noise_m", "matcher_m"}} plus the same summed under "all"."""
     kinds = {}
     b = best
     for prev, delta, sampled, matched, came_from, pull in reversed(steps):
@@ -329,7 +334,11 @@ def lineage_travel(steps, best):
         match = (matched[j, 0] - sampled[j, 0]) * c + (matched[j, 1] - sampled[j, 1]) * s
         kind = "%s, %s" % ("turning" if abs(delta[2]) > TURNING_RAD else "straight",
                            "pull" if pull > 0.0 else "no pull")
-        for k in (kind, "all"):
+        keys = [kind, "all"]
+        if wall_reference is not None:
+            off = abs(float(wrap_right_angle(p0[2] - wall_reference)))
+            keys.append("oblique" if off >= OBLIQUE_RAD else "aligned")
+        for k in keys:
             d = kinds.setdefault(k, {"updates": 0, "odometry_m": 0.0, "noise_m": 0.0,
                                      "matcher_m": 0.0})
             d["updates"] += 1
@@ -394,7 +403,7 @@ def replay(run, params, seed, drop_late_s, late, track_every_s=0.0, on_track=Non
               "ms": 1e3 * cpu / max(updates, 1), "grid": grid, "info": info,
               "loop_closure": mapper.cfg.loop.enabled, "loops": loops, "last_loop": last_loop}
     if lineage:
-        result["lineage"] = lineage_travel(steps, mapper.slam.best)
+        result["lineage"] = lineage_travel(steps, mapper.slam.best, mapper.slam.wall_reference)
     if errors:
         e = np.asarray(errors)
         result.update(max_err=float(e[:, 0].max()), mean_err=float(e[:, 0].mean()),

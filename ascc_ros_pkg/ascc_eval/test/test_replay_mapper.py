@@ -244,3 +244,10 @@ def test_lineage_travel_follows_the_best_particle_back_through_the_resamplings()
     assert kinds["turning, no pull"]["updates"] == 1
     assert kinds["turning, no pull"]["noise_m"] == pytest.approx(noise[1])
     assert kinds["straight, pull"]["matcher_m"] == pytest.approx(2 * match[2] + match[1])
+    assert "aligned" not in kinds and "oblique" not in kinds
+    # the walls' axes at 0.3 rad: the lineage's headings (0.29-0.51 rad) are within 0.4 rad
+    # of them, of 0.3 + pi/2 too; at -0.2 rad all are oblique (0.49-0.71 rad off)
+    for ref, kind in ((0.3, "aligned"), (0.3 + math.pi / 2, "aligned"), (-0.2, "oblique")):
+        kinds = replay_mapper.lineage_travel(steps, best=1, wall_reference=ref)
+        assert kinds[kind]["updates"] == 4
+        assert kinds[kind]["matcher_m"] == pytest.approx(kinds["all"]["matcher_m"])
