@@ -356,31 +356,27 @@ def local_placements(grid: np.ndarray, info: GridInfo, truth: np.ndarray, truth_
     p_local = replace(p, placement_search_rad=0.0)
     n = max(1, int(round(tile_m / info.resolution)))
     known = grid != UNKNOWN
-    c, s = math.cos(info.origin_yaw), math.sin(info.origin_yaw)
-    mc, ms = math.cos(map_pose[2]), math.sin(map_pose[2])
+    height, width = grid.shape
+
     def edges(origin, size):
         first = int(round((math.ceil(origin / tile_m - 1e-9) * tile_m - origin)
                           / info.resolution)) % n
         return sorted({0, size} | set(range(first, size, n)))
 
     tiles = []
-    rows_e, cols_e = edges(info.origin_y, grid.shape[0]), edges(info.origin_x, grid.shape[1])
+    rows_e, cols_e = edges(info.origin_y, height), edges(info.origin_x, width)
     for r0, r1 in zip(rows_e[:-1], rows_e[1:]):
         for c0, c1 in zip(cols_e[:-1], cols_e[1:]):
-            sub = grid[r0:r1, c0:c1]
-            k = int(known[r0:r1, c0:c1].sum())
+            tile_known = known[r0:r1, c0:c1]
+            k = int(tile_known.sum())
             if k == 0 or k < min_known_share * n * n:
                 continue
-            ox, oy = c0 * info.resolution, r0 * info.resolution
-            sub_info = GridInfo(info.resolution, sub.shape[1], sub.shape[0],
-                                info.origin_x + c * ox - s * oy, info.origin_y + s * ox + c * oy,
-                                info.origin_yaw)
-            pl = best_placement(sub, sub_info, truth, truth_info, map_pose, p_local)
-            rows, cols = np.nonzero(sub != UNKNOWN)
-            x, y = sub_info.cell_to_world(cols, rows)
-            cx, cy = float(np.mean(x)), float(np.mean(y))
-            tiles.append({"centre": [map_pose[0] + mc * cx - ms * cy,
-                                     map_pose[1] + ms * cx + mc * cy],
+            sub_info = info.grown(-c0, -r0, c1 - width, r1 - height)   # the tile's cells
+            pl = best_placement(grid[r0:r1, c0:c1], sub_info, truth, truth_info, map_pose,
+                                p_local)
+            rows, cols = np.nonzero(tile_known)
+            x, y = compose(map_pose, sub_info).cell_to_world(cols, rows)
+            tiles.append({"centre": [float(np.mean(x)), float(np.mean(y))],
                           "known": k,
                           "displacement": [-pl["offset"][0], -pl["offset"][1]],
                           "share": pl["agreed_share"], "share_given": pl["agreed_share_given"]})
