@@ -62,3 +62,18 @@ def test_no_straight_walls_no_direction():
     assert scan_wall_axis(np.zeros((5, 2))) is None                     # too few points
     short = np.c_[rng.uniform(0.0, 0.3, 100), np.full(100, 1.0)]        # a 0.3 m wall
     assert scan_wall_axis(short) is None
+
+
+def test_a_stretch_of_wall_a_few_degrees_off_shows_as_disagreement():
+    # A corridor whose left wall bends by 3.6 degrees (the held-out annex world's skewed
+    # side) after x = 1: the bent stretch near the left wall's line is caught by its
+    # histogram peak, and the common direction is a mix. Straight walls of one direction
+    # disagree by nothing beyond their own fits' noise.
+    rng = np.random.default_rng(4)
+    straight = scan_wall_axis(_corridor_points(rng))
+    assert straight is not None and straight.disagreement < 1e-3
+    pts = _corridor_points(rng)
+    bent = (pts[:, 1] > 1.0) & (pts[:, 0] > 1.0)
+    pts[bent, 1] += (pts[bent, 0] - 1.0) * math.tan(math.radians(3.6))
+    mixed = scan_wall_axis(pts)
+    assert mixed is not None and mixed.disagreement > 0.02

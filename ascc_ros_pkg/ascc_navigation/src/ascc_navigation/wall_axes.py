@@ -39,11 +39,16 @@ class WallAxis:
     angle) in the frame of the end points; ``points`` end points on the fitted walls;
     ``spread_m2``: sum over those points of their squared distance along their wall from the
     wall's centre [m^2] (the fit's information: the angle's std is the end points' noise
-    across the wall divided by its square root)."""
+    across the wall divided by its square root); ``disagreement`` [rad]: the largest
+    difference between one wall's own direction and the common one, less DISAGREE_STDS of
+    that wall's own fit (the noise across the walls estimated from all of them), at least
+    0: a stretch of another family of walls a few degrees off, caught near a peak, shows
+    by about that many degrees; walls of one direction by about nothing."""
 
     angle: float
     points: int
     spread_m2: float
+    disagreement: float = 0.0
 
 
 def _sharpness(pts: np.ndarray, angles: np.ndarray, bin_m: float) -> np.ndarray:
@@ -80,6 +85,7 @@ def scan_wall_axis(pts: np.ndarray, bin_m: float = 0.04, coarse_step_rad: float 
         v = -pts[:, 0] * sa + pts[:, 1] * ca
         num = spread = 0.0
         points = 0
+        walls = []  # per wall: sign, sum al*ac, sum al^2, sum ac^2 (centred)
         # Walls along u (v constant) turned by +d have dv/du = tan d; walls along v (u
         # constant) have du/dv = -tan d: one pooled slope for both.
         for along, across, sign in ((u, v, 1.0), (v, u, -1.0)):
@@ -96,11 +102,37 @@ def scan_wall_axis(pts: np.ndarray, bin_m: float = 0.04, coarse_step_rad: float 
                 if al.size < min_points or al.max() - al.min() < min_extent_m:
                     continue
                 al = al - al.mean()
-                num += sign * float(np.dot(al, ac - ac.mean()))
-                spread += float(np.dot(al, al))
+                ac = ac - ac.mean()
+                cov, var = float(np.dot(al, ac)), float(np.dot(al, al))
+                num += sign * cov
+                spread += var
                 points += int(al.size)
+                walls.append((sign, cov, var, float(np.dot(ac, ac))))
         if spread <= 0.0:
             return None
-        a = float(wrap_right_angle(a + math.atan2(num, spread)))
-        result = WallAxis(angle=a, points=points, spread_m2=spread)
+        result = WallAxis(angle=float(wrap_right_angle(a + math.atan2(num, spread))),
+                          points=points, spread_m2=spread,
+                          disagreement=_disagreement(walls, num / spread, points))
+        a = result.angle
     return result
+
+
+DISAGREE_STDS = 4.0  # a wall's own direction counts as off the others beyond this many stds
+NOISE_FLOOR_M = 0.01  # [m] walls' unevenness and the grid's steps: a near-perfect laser's
+                     # residuals would otherwise make a milliradian look like many stds
+
+
+def _disagreement(walls, slope: float, points: int) -> float:
+    """The largest |own slope - common slope| - DISAGREE_STDS std of own slope (at least 0)
+    of the walls ``walls`` ((sign, cov, var, ss) of their centred along / across
+    coordinates), the noise across the walls from the residuals about the common slope (at
+    least NOISE_FLOOR_M); 0 for one wall."""
+    if len(walls) < 2 or points <= 2 * len(walls):
+        return 0.0
+    w = np.array(walls)
+    sign, cov, var, ss = w[:, 0], w[:, 1], w[:, 2], w[:, 3]
+    expected = sign * slope
+    residual = float(np.sum(ss - 2.0 * expected * cov + expected ** 2 * var))
+    noise = max(NOISE_FLOOR_M, math.sqrt(max(residual, 0.0) / (points - 2 * len(walls))))
+    off = np.abs(cov / var - expected) - DISAGREE_STDS * noise / np.sqrt(var)
+    return max(0.0, float(np.max(off)))
