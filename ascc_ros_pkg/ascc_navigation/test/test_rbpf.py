@@ -836,6 +836,70 @@ def test_blind_prior_along_pulls_along_the_corridor_when_the_robot_drives_obliqu
     assert abs(err[1]) < 0.015                                # the scan corrects it
 
 
+@pytest.mark.parametrize("where", ["corridor", "room"])
+def test_draw_along_blind_drops_the_draws_spread_only_where_the_scan_cannot_see_it(where):
+    # draw_along_blind: in a featureless corridor the weights cannot tell draws along it
+    # apart, so the particles keep the odometry's distance there (their spread along the
+    # travel goes), and keep the spread across it and in heading; in a room, whose scan
+    # holds the position in every direction, the draws are left as they were.
+    def sampled(draw):
+        world = _corridor_world() if where == "corridor" else S.office_world()
+        true0 = np.array([10.0, 1.5, 0.0]) if where == "corridor" else np.array([4.0, 1.8, 0.1])
+        true1 = P.compose(true0, [0.25, 0.0, 0.0])
+        cfg = R.RbpfConfig(particles=30, xmin=0, ymin=0, xmax=40, ymax=10, srr=0.1, srt=0.2,
+                           str=0.0, stt=0.0, prior_along=15.0, prior_along_adaptive=True,
+                           draw_along_blind=draw)
+        slam = R.RbpfSlam(cfg, seed=4)
+        kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+        slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+        stats = slam.update([0.25, 0.0, 0.0], _prepare(_room_scan(true1, world=world), **kw))
+        offset = P.relative(true1, stats.sampled_poses)     # in the robot's frame at true1
+        return stats, offset.std(axis=0)
+
+    stats0, spread0 = sampled(False)
+    stats1, spread1 = sampled(True)
+    assert spread0[0] > 0.015 and stats0.draw_along_share == 1.0    # srr 0.1: 2.5 cm
+    np.testing.assert_allclose(spread1[1:], spread0[1:], rtol=1e-3)  # across, heading kept
+    if where == "corridor":
+        assert stats1.draw_along_share < 0.01 and spread1[0] < 0.01 * spread0[0]
+    else:
+        assert stats1.draw_along_share == 1.0
+        np.testing.assert_allclose(spread1, spread0, rtol=1e-9)
+
+
+def test_wall_axis_pull_starts_the_matcher_at_the_walls_heading_within_its_gate():
+    # wall_axis_pull_std_rad: the matcher's start headings are the one the scan's walls
+    # give against the first scan's (modulo a right angle), held with that std; positions
+    # untouched. The gate (three of the pull's std, inside the prior's) is on the predicted
+    # headings, not on the noisy draws; beyond it, or without walls, nothing changes.
+    world = _corridor_world()
+    kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
+    cfg = R.RbpfConfig(particles=3, xmin=0, ymin=0, xmax=40, ymax=3, wall_axis_std_rad=0.01,
+                       wall_axis_pull_std_rad=0.002)
+    slam = R.RbpfSlam(cfg, seed=0)
+    true0 = np.array([10.0, 1.5, 0.3])
+    slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
+    assert slam.wall_reference is not None
+    true1 = np.array([10.5, 1.4, 0.25])
+    axis = slam._wall_axis(_prepare(_room_scan(true1, world=world), **kw))
+    assert slam._wall.disagreement < 0.006                        # one family of walls
+    prior = np.array([1.0, 2.0, 3.0])
+    draws = np.tile(true1, (3, 1))
+    draws[:, 2] += [0.04, -0.05, 0.03]                             # the draws' heading noise
+    for predicted_err, moved in ((0.004, True), (-0.005, True), (0.01, False), (0.02, False)):
+        start, held = slam._wall_axis_start(axis, draws, prior,
+                                            np.full(3, true1[2] + predicted_err))
+        np.testing.assert_array_equal(start[:, :2], draws[:, :2])
+        if moved:
+            np.testing.assert_allclose(start[:, 2], true1[2], atol=1e-3)
+            np.testing.assert_array_equal(held, [1.0, 2.0, 0.002 ** -2])
+        else:
+            np.testing.assert_array_equal(start, draws)
+            np.testing.assert_array_equal(held, prior)
+    start, held = slam._wall_axis_start(None, draws, prior, np.full(3, true1[2]))
+    assert start is draws and held is prior                       # no straight walls
+
+
 def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1), **cfg_kw):
     """One update in the synthetic office with particles held at the truth turned by
     ``offsets`` [rad] (no motion noise; matched poses not accepted, so they stay)."""

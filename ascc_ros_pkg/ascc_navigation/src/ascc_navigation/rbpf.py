@@ -12,7 +12,9 @@ One filter update, given the odometry motion since the last update and a prepare
    nearest occupied cell of the particle's *own* map, bilinearly interpolated in a distance
    field capped at ``match_radius``. Beams longer than maxUrange - motion - new_area_margin
    are left out (they reach past what the map holds), and optionally (``seen_margin_m``)
-   beams ending beyond what the previous update's scan saw in their direction;
+   beams ending beyond what the previous update's scan saw in their direction; optionally
+   (``wall_axis_pull_std_rad``) the heading starts at, and is pulled to, the one the scan's
+   straight walls give (step 3's wall reference) instead of the sampled one;
 3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, r_w)^2 / (2 lsigma^2), r_w the match
    radius or the smaller ``weight_radius_m``; optionally (``detrend_along``) minus its
    linear trend in the particles' position along their mean heading; optionally
@@ -117,6 +119,21 @@ class RbpfConfig:
     prior_along_blind: bool = param(False, "with prior_along_adaptive: pull along the "
                                     "scan's least-held direction instead of the heading "
                                     "(not gmapping)")
+    # Not in gmapping: the motion model's draw along the direction the scan holds least
+    # (the smallest eigenvector of its position information, for the best particle at its
+    # sampled pose) is scaled by that information over the motion model's (as the matcher
+    # weighs them: 1 / max(sigma_xy, prior_min_xy)^2), at most 1: none of it where the scan
+    # does not see that direction (a featureless corridor), all of it where the scan tells
+    # at least as much as the odometry. (Along the heading instead, a draw's heading error
+    # of a few hundredths of a radian lets the corridor's across leak in.) Where the scan is
+    # blind the weights cannot tell the draws apart, so their spread is no hypothesis the
+    # scans test, only a random walk that the surviving particle's map keeps. The particles
+    # then share the odometry's distance there, and keep their spread across the travel and
+    # in heading. Off: the scripted corridor loops came out worse (docs/results/
+    # ascc_navigation.md).
+    draw_along_blind: bool = param(False, "the motion model's draw along the direction the "
+                                   "scan holds least scaled by the scan's information there "
+                                   "over the odometry's, at most 1 (not gmapping)")
     prior_min_xy: float = 0.02      # [m]
     prior_min_theta: float = 0.02   # [rad]
     # Not in gmapping: beams longer than maxUrange - (distance moved + this margin) are not
@@ -196,6 +213,17 @@ class RbpfConfig:
     wall_axis_std_rad: float = param(-1.0, "[rad] std of the heading prior from straight "
                                      "walls at right angles to the first scan's; <0 off "
                                      "(not gmapping)")
+    # Not in gmapping: with wall_axis_std_rad on, the matcher's heading held to the scan's
+    # walls as well. The weighting above only chooses among the particles; when they all
+    # share a heading that has strayed (their maps bent alike), it cannot move them. Here
+    # each particle's hill climb starts at the heading its scan's walls give (the first
+    # scan's wall directions modulo a right angle) and is pulled there with this std
+    # instead of the motion model's heading noise; the scan's own match (its heading
+    # information is ~0.5e6 beams/rad^2 in a corridor, ~1.4 mrad) still weighs in. Scans
+    # the gate leaves out keep the motion model's heading. <0: off.
+    wall_axis_pull_std_rad: float = param(-1.0, "[rad] with wall_axis_std_rad on: std of the "
+                                          "matcher's pull of each heading to the one the "
+                                          "scan's walls give; <0 off (not gmapping)")
     wall_axis_gate_rad: float = param(0.03, "[rad] scans whose walls are further than this "
                                       "from the first scan's directions are left out of "
                                       "the wall-axis prior")
@@ -250,6 +278,8 @@ class UpdateStats:
                                # heading (prior_along_adaptive only)
     along_pull: float = 0.0    # [beams/m^2] the along pull the matcher used
     along_angle: float = 0.0   # [rad] its direction from the heading (prior_along_blind)
+    draw_along_share: float = 1.0  # share of the draw kept along the scan's least-held
+                                   # direction (draw_along_blind)
     grown: bool = False        # the map grew
     log_gain: Optional[np.ndarray] = None       # per particle: this update's log-likelihood
                                                 # / ogain, added to the log weights
@@ -324,6 +354,18 @@ def sample_motion(poses: np.ndarray, delta: np.ndarray, cfg: RbpfConfig,
     noisy[:, 1] = delta[1] + s_xy * rng.standard_normal(n)
     noisy[:, 2] = delta[2] + s_th * rng.standard_normal(n)
     return compose(poses, noisy)
+
+
+def shrink_draw(sampled: np.ndarray, predicted: np.ndarray, angle: float,
+                share: float) -> np.ndarray:
+    """The draws ``sampled`` (N, 3) with their offset from the noise-free ``predicted``
+    poses scaled by ``share`` along the direction ``angle`` [rad, map frame]; across it
+    and in heading they are unchanged."""
+    u = np.array([math.cos(angle), math.sin(angle)])
+    offset = (sampled[:, :2] - predicted[:, :2]) @ u
+    out = sampled.copy()
+    out[:, :2] -= (1.0 - share) * offset[:, None] * u
+    return out
 
 
 NORMAL_BEAMS = 5  # matched beams (in scan order) whose field gradients make one normal
@@ -683,6 +725,7 @@ class RbpfSlam:
         # wall-axis prior: the map-frame direction of the walls (modulo a right angle), from
         # the first scan that shows straight walls, placed at the best particle's pose
         self.wall_reference: Optional[float] = None
+        self._wall = None  # the last scan's wall fit (wall_axes.WallAxis), for the pull
 
     @property
     def weights(self) -> np.ndarray:
@@ -757,6 +800,7 @@ class RbpfSlam:
         cfg = self.cfg
         stats = UpdateStats()
         odom_delta = np.asarray(odom_delta, dtype=float)
+        predicted = self.poses
         self.poses = sample_motion(self.poses, odom_delta, cfg, self.rng)
         stats.odom_delta = odom_delta
         stats.sampled_poses = self.poses.copy()
@@ -772,14 +816,22 @@ class RbpfSlam:
             s_xy, s_th = motion_noise(odom_delta, cfg)
             inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
                                + [max(s_th, cfg.prior_min_theta) ** -2])
+            if cfg.draw_along_blind:
+                self._shrink_blind_draw(fields, pts, compose(predicted, odom_delta),
+                                        inv_var[0], stats)
             along = cfg.prior_along * inv_var[0]
             if cfg.prior_along_adaptive and along > 0.0:
                 stats.along_info, stats.along_angle = self._along_information(
                     fields, pts, cfg.prior_along_blind)
                 along = max(0.0, along - 0.5 * stats.along_info)
             stats.along_pull = along
-            matched, score = self._hill_climb(fields, pts, cfg.motion_prior * inv_var,
-                                              self.poses, np.arange(cfg.particles),
+            start, prior = self.poses, cfg.motion_prior * inv_var
+            if cfg.wall_axis_std_rad > 0.0:
+                stats.wall_axis = self._wall_axis(scan)
+                start, prior = self._wall_axis_start(stats.wall_axis, start, prior,
+                                                     predicted[:, 2] + odom_delta[2])
+            matched, score = self._hill_climb(fields, pts, prior, start,
+                                              np.arange(cfg.particles),
                                               along=along, along_angle=stats.along_angle)
             recovered = np.zeros(cfg.particles, dtype=bool)
             if cfg.recover_score > 0.0:
@@ -801,7 +853,6 @@ class RbpfSlam:
             if cfg.detrend_along:
                 stats.log_gain = detrend_along(stats.log_gain, self.poses)
             if cfg.wall_axis_std_rad > 0.0:
-                stats.wall_axis = self._wall_axis(scan)
                 stats.wall_axis_used = self._weigh_wall_axis(stats.wall_axis, stats.log_gain)
             stats.weighed_poses = self.poses.copy()
             self.log_w += stats.log_gain
@@ -826,6 +877,18 @@ class RbpfSlam:
         self.updates += 1
         return stats
 
+    def _shrink_blind_draw(self, fields: _LikelihoodFields, pts: np.ndarray,
+                           predicted: np.ndarray, motion_info: float,
+                           stats: UpdateStats) -> None:
+        """draw_along_blind: the draws' offsets from the noise-free ``predicted`` poses
+        scaled along the direction the scan holds least by its information there over
+        ``motion_info`` (at most 1); records the share and the draws in ``stats``."""
+        least, angle = self._along_information(fields, pts, True)
+        stats.draw_along_share = min(1.0, least / motion_info)
+        self.poses = shrink_draw(self.poses, predicted, angle + self.poses[self.best, 2],
+                                 stats.draw_along_share)
+        stats.sampled_poses = self.poses.copy()
+
     def _along_information(self, fields: _LikelihoodFields, pts: np.ndarray,
                            blind: bool = False) -> Tuple[float, float]:
         """The scan's information [1/m^2] about the position along the best particle's
@@ -844,10 +907,37 @@ class RbpfSlam:
         h = np.array([math.cos(pose[0, 2]), math.sin(pose[0, 2])])
         return float(h @ info[:2, :2] @ h), 0.0
 
-    @staticmethod
-    def _wall_axis(scan: PreparedScan) -> Optional[float]:
-        axis = scan_wall_axis(scan.hits)
-        return None if axis is None else axis.angle
+    def _wall_axis(self, scan: PreparedScan) -> Optional[float]:
+        """The scan's wall direction [rad, base frame, modulo a right angle], or None; keeps
+        the fit (``self._wall``) for the pull."""
+        self._wall = scan_wall_axis(scan.hits)
+        return None if self._wall is None else self._wall.angle
+
+    def _wall_axis_start(self, axis: Optional[float], start: np.ndarray, prior: np.ndarray,
+                         predicted: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """The matcher's start poses and prior weights with each heading set to the one the
+        scan's wall direction ``axis`` (base frame) gives against the wall reference, modulo
+        a right angle, and held there with wall_axis_pull_std_rad. Unchanged without walls,
+        before the reference, where one of the scan's walls is off their common direction
+        by more than the gate (``WallAxis.disagreement``: another family of walls, whose
+        mix the common direction is), or beyond the gate: on the median of the ``predicted``
+        headings (the particles' previous headings plus the odometry's turn, without the
+        motion model's noise: after a turn its draws spread by tenths of a radian, and a
+        median of them would let walls beyond the gate in)."""
+        if self.cfg.wall_axis_pull_std_rad <= 0.0 or self.wall_reference is None or axis is None:
+            return start, prior
+        gate = min(self.cfg.wall_axis_gate_rad, 3.0 * self.cfg.wall_axis_pull_std_rad)
+        if self._wall is not None and self._wall.disagreement > gate:
+            return start, prior
+        gate_err = wrap_right_angle(predicted + axis - self.wall_reference)
+        if abs(float(np.median(gate_err))) > gate:
+            return start, prior
+        err = wrap_right_angle(start[:, 2] + axis - self.wall_reference)
+        start = start.copy()
+        start[:, 2] -= err
+        prior = np.array(prior, dtype=float)
+        prior[2] = self.cfg.wall_axis_pull_std_rad ** -2
+        return start, prior
 
     def _weigh_wall_axis(self, axis: Optional[float], log_gain: np.ndarray) -> bool:
         """Adds the wall-axis prior's term to ``log_gain`` (in place); False if the scan shows
