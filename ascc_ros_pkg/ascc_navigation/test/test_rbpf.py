@@ -881,13 +881,13 @@ def test_wall_axis_pull_starts_the_matcher_at_the_walls_heading_within_its_gate(
     slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
     assert slam.wall_reference is not None
     true1 = np.array([10.5, 1.4, 0.25])
-    axis = slam._wall_axis(_prepare(_room_scan(true1, world=world), **kw))
-    assert slam._wall.disagreement < 0.006                        # one family of walls
+    wall = R.scan_wall_axis(_prepare(_room_scan(true1, world=world), **kw).hits)
+    assert wall.disagreement < 0.006                              # one family of walls
     prior = np.array([1.0, 2.0, 3.0])
     draws = np.tile(true1, (3, 1))
     draws[:, 2] += [0.04, -0.05, 0.03]                             # the draws' heading noise
     for predicted_err, moved in ((0.004, True), (-0.005, True), (0.01, False), (0.02, False)):
-        start, held = slam._wall_axis_start(axis, draws, prior,
+        start, held = slam._wall_axis_start(wall, draws, prior,
                                             np.full(3, true1[2] + predicted_err))
         np.testing.assert_array_equal(start[:, :2], draws[:, :2])
         if moved:

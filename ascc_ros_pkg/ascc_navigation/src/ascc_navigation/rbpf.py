@@ -53,7 +53,7 @@ from ascc_common.pose2d import compose, mean_yaw, wrap_angle
 from ascc_navigation.climb import field_image, hill_climb
 from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
-from ascc_navigation.wall_axes import scan_wall_axis, wrap_right_angle
+from ascc_navigation.wall_axes import WallAxis, scan_wall_axis, wrap_right_angle
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
@@ -354,6 +354,11 @@ def sample_motion(poses: np.ndarray, delta: np.ndarray, cfg: RbpfConfig,
     noisy[:, 1] = delta[1] + s_xy * rng.standard_normal(n)
     noisy[:, 2] = delta[2] + s_th * rng.standard_normal(n)
     return compose(poses, noisy)
+
+
+def _angle(wall: Optional[WallAxis]) -> Optional[float]:
+    """A wall fit's direction [rad], or None without one."""
+    return None if wall is None else wall.angle
 
 
 def shrink_draw(sampled: np.ndarray, predicted: np.ndarray, angle: float,
@@ -725,7 +730,6 @@ class RbpfSlam:
         # wall-axis prior: the map-frame direction of the walls (modulo a right angle), from
         # the first scan that shows straight walls, placed at the best particle's pose
         self.wall_reference: Optional[float] = None
-        self._wall = None  # the last scan's wall fit (wall_axes.WallAxis), for the pull
 
     @property
     def weights(self) -> np.ndarray:
@@ -749,7 +753,7 @@ class RbpfSlam:
         self._previous = scan
         self.wall_reference = None
         if self.cfg.wall_axis_std_rad > 0.0:  # the reference, if this scan shows walls
-            stats.wall_axis = self._wall_axis(scan)
+            stats.wall_axis = _angle(scan_wall_axis(scan.hits))
             self._weigh_wall_axis(stats.wall_axis, np.zeros(self.cfg.particles))
         self.initialized = True
         self.updates = 1
@@ -800,7 +804,7 @@ class RbpfSlam:
         cfg = self.cfg
         stats = UpdateStats()
         odom_delta = np.asarray(odom_delta, dtype=float)
-        predicted = self.poses
+        predicted = compose(self.poses, odom_delta)  # without the motion model's noise
         self.poses = sample_motion(self.poses, odom_delta, cfg, self.rng)
         stats.odom_delta = odom_delta
         stats.sampled_poses = self.poses.copy()
@@ -817,8 +821,7 @@ class RbpfSlam:
             inv_var = np.array([max(s_xy, cfg.prior_min_xy) ** -2] * 2
                                + [max(s_th, cfg.prior_min_theta) ** -2])
             if cfg.draw_along_blind:
-                self._shrink_blind_draw(fields, pts, compose(predicted, odom_delta),
-                                        inv_var[0], stats)
+                self._shrink_blind_draw(fields, pts, predicted, inv_var[0], stats)
             along = cfg.prior_along * inv_var[0]
             if cfg.prior_along_adaptive and along > 0.0:
                 stats.along_info, stats.along_angle = self._along_information(
@@ -827,9 +830,9 @@ class RbpfSlam:
             stats.along_pull = along
             start, prior = self.poses, cfg.motion_prior * inv_var
             if cfg.wall_axis_std_rad > 0.0:
-                stats.wall_axis = self._wall_axis(scan)
-                start, prior = self._wall_axis_start(stats.wall_axis, start, prior,
-                                                     predicted[:, 2] + odom_delta[2])
+                wall = scan_wall_axis(scan.hits)
+                stats.wall_axis = _angle(wall)
+                start, prior = self._wall_axis_start(wall, start, prior, predicted[:, 2])
             matched, score = self._hill_climb(fields, pts, prior, start,
                                               np.arange(cfg.particles),
                                               along=along, along_angle=stats.along_angle)
@@ -907,32 +910,26 @@ class RbpfSlam:
         h = np.array([math.cos(pose[0, 2]), math.sin(pose[0, 2])])
         return float(h @ info[:2, :2] @ h), 0.0
 
-    def _wall_axis(self, scan: PreparedScan) -> Optional[float]:
-        """The scan's wall direction [rad, base frame, modulo a right angle], or None; keeps
-        the fit (``self._wall``) for the pull."""
-        self._wall = scan_wall_axis(scan.hits)
-        return None if self._wall is None else self._wall.angle
-
-    def _wall_axis_start(self, axis: Optional[float], start: np.ndarray, prior: np.ndarray,
+    def _wall_axis_start(self, wall: Optional[WallAxis], start: np.ndarray, prior: np.ndarray,
                          predicted: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """The matcher's start poses and prior weights with each heading set to the one the
-        scan's wall direction ``axis`` (base frame) gives against the wall reference, modulo
-        a right angle, and held there with wall_axis_pull_std_rad. Unchanged without walls,
+        scan's wall fit ``wall`` (base frame) gives against the wall reference, modulo a
+        right angle, and held there with wall_axis_pull_std_rad. Unchanged without walls,
         before the reference, where one of the scan's walls is off their common direction
         by more than the gate (``WallAxis.disagreement``: another family of walls, whose
         mix the common direction is), or beyond the gate: on the median of the ``predicted``
         headings (the particles' previous headings plus the odometry's turn, without the
         motion model's noise: after a turn its draws spread by tenths of a radian, and a
         median of them would let walls beyond the gate in)."""
-        if self.cfg.wall_axis_pull_std_rad <= 0.0 or self.wall_reference is None or axis is None:
+        if self.cfg.wall_axis_pull_std_rad <= 0.0 or self.wall_reference is None or wall is None:
             return start, prior
         gate = min(self.cfg.wall_axis_gate_rad, 3.0 * self.cfg.wall_axis_pull_std_rad)
-        if self._wall is not None and self._wall.disagreement > gate:
+        if wall.disagreement > gate:
             return start, prior
-        gate_err = wrap_right_angle(predicted + axis - self.wall_reference)
+        gate_err = wrap_right_angle(predicted + wall.angle - self.wall_reference)
         if abs(float(np.median(gate_err))) > gate:
             return start, prior
-        err = wrap_right_angle(start[:, 2] + axis - self.wall_reference)
+        err = wrap_right_angle(start[:, 2] + wall.angle - self.wall_reference)
         start = start.copy()
         start[:, 2] -= err
         prior = np.array(prior, dtype=float)
