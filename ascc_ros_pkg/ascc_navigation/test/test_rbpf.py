@@ -870,8 +870,8 @@ def test_draw_along_blind_drops_the_draws_spread_only_where_the_scan_cannot_see_
 def test_wall_axis_pull_starts_the_matcher_at_the_walls_heading_within_its_gate():
     # wall_axis_pull_std_rad: the matcher's start headings are the one the scan's walls
     # give against the first scan's (modulo a right angle), held with that std; positions
-    # untouched. The gate (three of the pull's std, inside the prior's) is on the predicted
-    # headings, not on the noisy draws; beyond it, or without walls, nothing changes.
+    # untouched. The gate (the prior's, 0.03 rad) is on the predicted headings, not on the
+    # noisy draws; beyond it, or without walls, nothing changes.
     world = _corridor_world()
     kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
     cfg = R.RbpfConfig(particles=3, xmin=0, ymin=0, xmax=40, ymax=3, wall_axis_std_rad=0.01,
@@ -886,7 +886,8 @@ def test_wall_axis_pull_starts_the_matcher_at_the_walls_heading_within_its_gate(
     prior = np.array([1.0, 2.0, 3.0])
     draws = np.tile(true1, (3, 1))
     draws[:, 2] += [0.04, -0.05, 0.03]                             # the draws' heading noise
-    for predicted_err, moved in ((0.004, True), (-0.005, True), (0.01, False), (0.02, False)):
+    for predicted_err, moved in ((0.004, True), (-0.02, True), (0.028, True), (0.035, False),
+                                 (-0.05, False)):
         start, held = slam._wall_axis_start(wall, draws, prior,
                                             np.full(3, true1[2] + predicted_err))
         np.testing.assert_array_equal(start[:, :2], draws[:, :2])
