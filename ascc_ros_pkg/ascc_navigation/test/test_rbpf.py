@@ -867,11 +867,12 @@ def test_draw_along_blind_drops_the_draws_spread_only_where_the_scan_cannot_see_
         np.testing.assert_allclose(spread1, spread0, rtol=1e-9)
 
 
-def test_wall_axis_pull_starts_the_matcher_at_the_walls_heading_within_its_gate():
-    # wall_axis_pull_std_rad: the matcher's start headings are the one the scan's walls
-    # give against the first scan's (modulo a right angle), held with that std; positions
-    # untouched. The gate (the prior's, 0.03 rad) is on the predicted headings, not on the
-    # noisy draws; beyond it, or without walls, nothing changes.
+def test_wall_axis_pull_moves_the_matched_heading_towards_the_walls_within_its_gate():
+    # wall_axis_pull_std_rad: after the climb, one Gauss-Newton step of the match plus the
+    # walls' heading prior moves each matched heading towards the one the scan's walls give
+    # (the first scan's, modulo a right angle), part of the way (the scan's own heading
+    # information weighs in), and its score is recomputed. The gate (three of the pull's
+    # std) is on the matched headings; beyond it, or without walls, nothing changes.
     world = _corridor_world()
     kw = dict(max_range=4.5, free_pullback=0.05, hit_offset=0.025)
     cfg = R.RbpfConfig(particles=3, xmin=0, ymin=0, xmax=40, ymax=3, wall_axis_std_rad=0.01,
@@ -881,24 +882,31 @@ def test_wall_axis_pull_starts_the_matcher_at_the_walls_heading_within_its_gate(
     slam.start(true0, _prepare(_room_scan(true0, world=world), **kw))
     assert slam.wall_reference is not None
     true1 = np.array([10.5, 1.4, 0.25])
-    wall = R.scan_wall_axis(_prepare(_room_scan(true1, world=world), **kw).hits)
+    scan = _prepare(_room_scan(true1, world=world), **kw)
+    wall = R.scan_wall_axis(scan.hits)
     assert wall.disagreement < 0.006                              # one family of walls
-    prior = np.array([1.0, 2.0, 3.0])
-    draws = np.tile(true1, (3, 1))
-    draws[:, 2] += [0.04, -0.05, 0.03]                             # the draws' heading noise
-    for predicted_err, moved in ((0.004, True), (-0.02, True), (0.028, True), (0.035, False),
-                                 (-0.05, False)):
-        start, held = slam._wall_axis_start(wall, draws, prior,
-                                            np.full(3, true1[2] + predicted_err))
-        np.testing.assert_array_equal(start[:, :2], draws[:, :2])
-        if moved:
-            np.testing.assert_allclose(start[:, 2], true1[2], atol=1e-3)
-            np.testing.assert_array_equal(held, [1.0, 2.0, 0.002 ** -2])
+    pts = scan.match
+    fields = slam._fields(pts)
+    prior = np.array([400.0, 400.0, 400.0])
+    for err, pulled in ((0.004, True), (-0.005, True), (0.01, False), (-0.02, False)):
+        matched = np.tile(true1, (3, 1))
+        matched[:, 2] += err
+        score = np.zeros(3)
+        before = matched.copy()
+        assert slam._wall_axis_pull(wall, fields, pts, prior, matched, score) == pulled
+        if pulled:
+            left = matched[:, 2] - true1[2]
+            assert np.all(np.sign(left) == np.sign(err))          # towards it, not past it
+            assert np.all(np.abs(left) < 0.8 * abs(err))          # by a real share
+            assert np.all(np.hypot(*(matched[:, :2] - before[:, :2]).T) < 0.02)
+            np.testing.assert_allclose(score, fields.match_score(fields.distances(
+                matched[:, None, :], np.arange(3), pts), cfg.sigma)[:, 0])
         else:
-            np.testing.assert_array_equal(start, draws)
-            np.testing.assert_array_equal(held, prior)
-    start, held = slam._wall_axis_start(None, draws, prior, np.full(3, true1[2]))
-    assert start is draws and held is prior                       # no straight walls
+            np.testing.assert_array_equal(matched, before)
+            np.testing.assert_array_equal(score, 0.0)
+    matched = np.tile(true1, (3, 1))
+    assert not slam._wall_axis_pull(None, fields, pts, prior, matched, np.zeros(3))
+    np.testing.assert_array_equal(matched, np.tile(true1, (3, 1)))  # no straight walls
 
 
 def _wall_axis_update(std, offsets, true0=(4.0, 1.8, 0.1), **cfg_kw):

@@ -13,8 +13,9 @@ One filter update, given the odometry motion since the last update and a prepare
    field capped at ``match_radius``. Beams longer than maxUrange - motion - new_area_margin
    are left out (they reach past what the map holds), and optionally (``seen_margin_m``)
    beams ending beyond what the previous update's scan saw in their direction; optionally
-   (``wall_axis_pull_std_rad``) the heading starts at, and is pulled to, the one the scan's
-   straight walls give (step 3's wall reference) instead of the sampled one;
+   (``wall_axis_pull_std_rad``) the matched pose is then pulled, in one Gauss-Newton step,
+   towards the heading the scan's straight walls give (step 3's wall reference), where the
+   matched heading is already near it;
 3. weighting: log w_i += (1/ogain) * sum_b -min(d_b, r_w)^2 / (2 lsigma^2), r_w the match
    radius or the smaller ``weight_radius_m``; optionally (``detrend_along``) minus its
    linear trend in the particles' position along their mean heading; optionally
@@ -213,14 +214,17 @@ class RbpfConfig:
     wall_axis_std_rad: float = param(-1.0, "[rad] std of the heading prior from straight "
                                      "walls at right angles to the first scan's; <0 off "
                                      "(not gmapping)")
-    # Not in gmapping: with wall_axis_std_rad on, the matcher's heading held to the scan's
+    # Not in gmapping: with wall_axis_std_rad on, the matched heading held to the scan's
     # walls as well. The weighting above only chooses among the particles; when they all
-    # share a heading that has strayed (their maps bent alike), it cannot move them. Here
-    # each particle's hill climb starts at the heading its scan's walls give (the first
-    # scan's wall directions modulo a right angle) and is pulled there with this std
-    # instead of the motion model's heading noise; the scan's own match (its heading
-    # information is ~0.5e6 beams/rad^2 in a corridor, ~1.4 mrad) still weighs in. Scans
-    # the gate leaves out keep the motion model's heading. <0: off.
+    # share a heading that has strayed (their maps bent alike), it cannot move them. Here,
+    # after the hill climb, each particle's matched pose takes one Gauss-Newton step of the
+    # match (its scan information, ``scan_information``, with the motion prior in x and y)
+    # plus a prior of this std on the heading its scan's walls give (the first scan's wall
+    # directions modulo a right angle): the scan's own heading information (~0.5e6
+    # beams/rad^2 in a corridor, ~1.4 mrad) and the walls' share the correction. Only where
+    # the particles' matched headings lie within three of this std of the walls' (median)
+    # and the scan's walls agree among themselves: a side a few degrees off the others is
+    # matched as it is and left alone (docs/results/ascc_navigation.md). <0: off.
     wall_axis_pull_std_rad: float = param(-1.0, "[rad] with wall_axis_std_rad on: std of the "
                                           "matcher's pull of each heading to the one the "
                                           "scan's walls give; <0 off (not gmapping)")
@@ -292,6 +296,7 @@ class UpdateStats:
     # (None: no straight walls, or the prior is off) and whether it weighed the particles
     wall_axis: Optional[float] = None
     wall_axis_used: bool = False
+    wall_axis_pulled: bool = False  # wall_axis_pull_std_rad: the matched poses were pulled
 
 
 def detrend_along(gain: np.ndarray, poses: np.ndarray) -> np.ndarray:
@@ -804,7 +809,8 @@ class RbpfSlam:
         cfg = self.cfg
         stats = UpdateStats()
         odom_delta = np.asarray(odom_delta, dtype=float)
-        predicted = compose(self.poses, odom_delta)  # without the motion model's noise
+        # without the motion model's noise (draw_along_blind's reference)
+        predicted = compose(self.poses, odom_delta) if cfg.draw_along_blind else None
         self.poses = sample_motion(self.poses, odom_delta, cfg, self.rng)
         stats.odom_delta = odom_delta
         stats.sampled_poses = self.poses.copy()
@@ -828,14 +834,15 @@ class RbpfSlam:
                     fields, pts, cfg.prior_along_blind)
                 along = max(0.0, along - 0.5 * stats.along_info)
             stats.along_pull = along
-            start, prior = self.poses, cfg.motion_prior * inv_var
+            prior = cfg.motion_prior * inv_var
+            matched, score = self._hill_climb(fields, pts, prior, self.poses,
+                                              np.arange(cfg.particles),
+                                              along=along, along_angle=stats.along_angle)
             if cfg.wall_axis_std_rad > 0.0:
                 wall = scan_wall_axis(scan.hits)
                 stats.wall_axis = _angle(wall)
-                start, prior = self._wall_axis_start(wall, start, prior, predicted[:, 2])
-            matched, score = self._hill_climb(fields, pts, prior, start,
-                                              np.arange(cfg.particles),
-                                              along=along, along_angle=stats.along_angle)
+                stats.wall_axis_pulled = self._wall_axis_pull(wall, fields, pts, prior,
+                                                              matched, score)
             recovered = np.zeros(cfg.particles, dtype=bool)
             if cfg.recover_score > 0.0:
                 stats.recovered = self._recover(matched, score, pts, recovered)
@@ -910,33 +917,41 @@ class RbpfSlam:
         h = np.array([math.cos(pose[0, 2]), math.sin(pose[0, 2])])
         return float(h @ info[:2, :2] @ h), 0.0
 
-    def _wall_axis_start(self, wall: Optional[WallAxis], start: np.ndarray, prior: np.ndarray,
-                         predicted: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-        """The matcher's start poses and prior weights with each heading set to the one the
+    def _wall_axis_pull(self, wall: Optional[WallAxis], fields: _LikelihoodFields,
+                        pts: np.ndarray, prior: np.ndarray, matched: np.ndarray,
+                        score: np.ndarray) -> bool:
+        """wall_axis_pull_std_rad: the ``matched`` poses (updated in place, with their
+        ``score``) moved by one Gauss-Newton step of the match (the scan's information at
+        each, plus ``prior``'s x and y terms) with a prior of that std on the heading the
         scan's wall fit ``wall`` (base frame) gives against the wall reference, modulo a
-        right angle, and held there with wall_axis_pull_std_rad. Unchanged without walls,
-        before the reference, where one of the scan's walls is off their common direction
-        by more than three of the pull's std (``WallAxis.disagreement``: another family of
-        walls, whose mix the common direction is), or beyond the prior's gate
-        (wall_axis_gate_rad) on the median of the ``predicted`` headings (the particles'
-        previous headings plus the odometry's turn, without the motion model's noise:
-        after a turn its draws spread by tenths of a radian, and a median of them would let
-        walls beyond the gate in). The odometry's own turn errs by about 10 mrad per update
-        (the simulated wheels over 0.25 m), so a narrower gate there skips scans at random."""
-        if self.cfg.wall_axis_pull_std_rad <= 0.0 or self.wall_reference is None or wall is None:
-            return start, prior
-        if wall.disagreement > min(self.cfg.wall_axis_gate_rad,
-                                   3.0 * self.cfg.wall_axis_pull_std_rad):
-            return start, prior
-        gate_err = wrap_right_angle(predicted + wall.angle - self.wall_reference)
-        if abs(float(np.median(gate_err))) > self.cfg.wall_axis_gate_rad:
-            return start, prior
-        err = wrap_right_angle(start[:, 2] + wall.angle - self.wall_reference)
-        start = start.copy()
-        start[:, 2] -= err
-        prior = np.array(prior, dtype=float)
-        prior[2] = self.cfg.wall_axis_pull_std_rad ** -2
-        return start, prior
+        right angle. Not applied (False) without walls, before the reference, where one of
+        the scan's walls is off their common direction by more than the gate, three of the
+        pull's std (``WallAxis.disagreement``: another family of walls, whose mix the
+        common direction is), or where the median matched heading is further than the gate
+        from the walls': the matched heading errs by a milliradian or two, so a side of
+        walls a few degrees off the reference is left as the scan matched it. (A gate on
+        the predicted heading instead, the odometry's turn added to the last one, has the
+        odometry's ~10 mrad error per update: narrow, it skipped scans at random; at the
+        prior's 0.03 rad it let a side 3.6 degrees off be pulled straight.)"""
+        std = self.cfg.wall_axis_pull_std_rad
+        if std <= 0.0 or self.wall_reference is None or wall is None:
+            return False
+        gate = 3.0 * std
+        if wall.disagreement > gate:
+            return False
+        err = wrap_right_angle(matched[:, 2] + wall.angle - self.wall_reference)
+        if abs(float(np.median(err))) > gate:
+            return False
+        particles = np.arange(matched.shape[0])
+        hessian = scan_information(*fields.gradients(matched, particles, pts), self.cfg.sigma)
+        hessian = hessian + np.diag([prior[0], prior[1], std ** -2])
+        rhs = np.zeros((matched.shape[0], 3, 1))
+        rhs[:, 2, 0] = -err / std ** 2
+        matched += np.linalg.solve(hessian, rhs)[:, :, 0]
+        matched[:, 2] = wrap_angle(matched[:, 2])
+        score[:] = fields.match_score(fields.distances(matched[:, None, :], particles, pts),
+                                      self.cfg.sigma)[:, 0]
+        return True
 
     def _weigh_wall_axis(self, axis: Optional[float], log_gain: np.ndarray) -> bool:
         """Adds the wall-axis prior's term to ``log_gain`` (in place); False if the scan shows
