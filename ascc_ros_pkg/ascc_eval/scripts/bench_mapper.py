@@ -38,6 +38,12 @@ poses wrong only in the other parts: the agreement shows what the map loses to t
 particles then share that part, so the weights cannot tell them apart in it; the losses of
 the parts do not add up to the shipped filter's.)
 
+``--filters K`` (an attribution experiment): K filters per seed on the same odometry and
+scans, with the filter seeds seed, seed + 1000, ... (the first is the usual run), and one
+more line: the map rebuilt from the pose-by-pose average of their lineages. What the
+average gains is the share of the error that the filters' own random draws make (it
+differs from filter to filter); what it keeps is the share they all make from the data.
+
 Worlds: ``synthetic`` (``ascc_navigation.synthetic.office_world``, 14 m x 10 m, own ray
 caster, 1 cm range noise) and the simulator's ``office``, ``lab``, ``corridor`` (ascc_sim
 world files, ground truth ``truth_map``, scans from ascc_sim's URG-04LX model: 1 %
@@ -47,7 +53,7 @@ the default list: ``annex``, a 134 m corridor loop whose walls are not all at ri
 assumption of right angles.
 
     python3 scripts/bench_mapper.py [--worlds synthetic,office,lab,corridor] [--seed 1]
-        [--runs N] [--odometry create1] [--oracle along] [--set NAME=VALUE]
+        [--runs N] [--odometry create1] [--oracle along] [--filters K] [--set NAME=VALUE]
 """
 import argparse
 import math
@@ -233,6 +239,30 @@ def odometry(kind, traj, rng):
     return np.array(out)
 
 
+def average_lineages(lineages):
+    """The pose-by-pose average of several filters' trajectories over the same updates
+    ((K, T, 3) -> (T, 3)): mean position, circular mean heading."""
+    t = np.asarray(lineages, dtype=float)
+    out = t.mean(axis=0)
+    out[:, 2] = np.arctan2(np.sin(t[:, :, 2]).mean(axis=0), np.cos(t[:, :, 2]).mean(axis=0))
+    return out
+
+
+def average_map(world, results):
+    """The map rebuilt from the average of ``results``' lineages (runs of ``run`` on the same
+    odometry and scans with different filter seeds): its agreement and sides, or None if a
+    filter was reset (its lineage does not cover every scan)."""
+    if any(r["lineage"] is None for r in results):
+        return None
+    first = results[0]
+    poses = average_lineages([r["lineage"] for r in results])
+    maps = rebuild_counts(lambda: ParticleMaps(1, first["info"]), poses, first["scans"])
+    grid = maps.occupancy(0, first["occ_thresh"])
+    acc = map_agreement(grid, maps.info, world.truth, world.info)
+    sides = world.quality(grid, maps.info)[0] if hasattr(world, "quality") else []
+    return acc, sides
+
+
 def increment_errors(truth, estimate, odom, min_step_m=0.1):
     """Mean and std [mm] of the error in forward motion of the translating increments
     (> ``min_step_m``) between consecutive updates: of ``estimate`` and of ``odom`` (poses
@@ -290,13 +320,16 @@ def with_oracle(mapper, part, truth_now):
     return slam
 
 
-def run(world, params, seed, odom_kind, save=None, oracle=None):
+def run(world, params, seed, odom_kind, save=None, oracle=None, filter_seed=None):
+    """One route: odometry and scans drawn from ``seed`` (the world's own rng for the scans),
+    the filter's draws from ``filter_seed`` (default: ``seed``)."""
     rng = np.random.default_rng(seed)
     traj = S.waypoint_trajectory(world.route, v=0.3, w=0.8, dt=SCAN_PERIOD_S)
     if hasattr(world, "check_route"):
         world.check_route(traj)
     odom = odometry(odom_kind, traj, rng)
-    mapper = M.SlamMapper(from_params(M.MapperConfig, params.get), seed=seed)
+    mapper = M.SlamMapper(from_params(M.MapperConfig, params.get),
+                          seed=seed if filter_seed is None else filter_seed)
     spec = world.spec
     now = [0]  # the index of the scan being fed (the oracle's truth)
     wrapped = None  # the filter the oracle wraps (a reset makes a new one)
@@ -344,9 +377,12 @@ def run(world, params, seed, odom_kind, save=None, oracle=None):
             save_map(prefix + ".yaml", est_grid, est_info)
         sides, corner = world.quality(est_grid, est_info, prefix)
         ideal_sides, _ = world.quality(ideal_grid, ideal.info)
-    inc, odom_inc = increment_errors(np.array(true_poses), mapper.slam.trajectory(),
-                                     np.array(odom_poses))
+    lineage = mapper.slam.trajectory()
+    inc, odom_inc = increment_errors(np.array(true_poses), lineage, np.array(odom_poses))
     return {
+        # the best particle's poses at the registered scans (None after a reset)
+        "lineage": lineage if lineage.shape[0] == len(scans) else None,
+        "scans": scans, "info": est_info, "occ_thresh": mapper.cfg.rbpf.occ_thresh,
         "inc": inc, "odom_inc": odom_inc,
         "odom_scale": float(np.sum(np.hypot(np.diff(traj[:, 0]), np.diff(traj[:, 1])))
                             / np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1])))),
@@ -380,6 +416,10 @@ def main():
     ap.add_argument("--oracle", choices=ORACLES, default=None,
                     help="correct this part of every particle's pose to the truth before "
                          "each scan is registered (an attribution experiment)")
+    ap.add_argument("--filters", type=int, default=1, metavar="K",
+                    help="run K filters per seed on the same odometry and scans (filter "
+                         "seeds seed, seed+1000, ...; the first is the usual run) and also "
+                         "print the map rebuilt from the average of their lineages")
     add_parameter_arguments(ap)
     args = ap.parse_args()
     if args.save:
@@ -401,25 +441,45 @@ def main():
     print(header)
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
-            rng = np.random.default_rng(1000 + seed)
-            world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
-            r = run(world, params, seed, args.odometry, args.save, args.oracle)
-            a = r["acc"]
-            print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
-                  "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "
-                  "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f  %s  %.1f/%.1f"
-                  % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
-                     r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
-                     100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
-                     r["along"], r["across"], r["odom_err"], r["map_m"][0], r["map_m"][1],
-                     r["maps_mb"], 100 * r["ideal"], r["cpu_s"], r["inc"][0], r["inc"][1],
-                     r["odom_inc"][0], r["odom_inc"][1],
-                     " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"],
-                     r["odom_scale"],
-                     " ".join("%+.2f" % v for v in r["ideal_sides"]) or "-",
-                     *r["heading_mrad"]))
-            sys.stdout.flush()
+            results = []
+            for j in range(args.filters):
+                rng = np.random.default_rng(1000 + seed)  # the same scans for every filter
+                world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
+                results.append(run(world, params, seed, args.odometry,
+                                   args.save if j == 0 else None, args.oracle,
+                                   filter_seed=seed + 1000 * j))
+                print_row(results[-1], seed)
+            if args.filters > 1:
+                avg = average_map(world, results)
+                accs = [100 * r["acc"]["accuracy"] for r in results]
+                if avg is None:
+                    print("  average of the %d filters' lineages: - (a filter was reset)"
+                          % args.filters)
+                else:
+                    print("  average of the %d filters' lineages: %.2f%% (theirs %s, mean "
+                          "%.2f%%), sides %s" % (args.filters, 100 * avg[0]["accuracy"],
+                                                 " ".join("%.2f" % v for v in accs),
+                                                 float(np.mean(accs)),
+                                                 " ".join("%+.2f" % v for v in avg[1]) or "-"))
+                sys.stdout.flush()
 
+
+def print_row(r, seed):
+    a = r["acc"]
+    print("%-9s %4d %5.0fm %7d %7.1f %7.1f %7.1f %7.2f%% %5.1f%% %5.1f%% %8d %6.3fm "
+          "%6.3fm %5.2fm %5.2fm %6.2fm %4.0fmx%4.0fm %4.0fMB %6.2f%% %6.1f "
+          "%+5.2f/%5.2f %+5.2f/%5.2f  %s %.2f  %.4f  %s  %.1f/%.1f"
+          % (r["world"], seed, r["length"], r["updates"], r["ms_mean"], r["ms_p95"],
+             r["ms_wall"], 100 * a["accuracy"], 100 * a["free_accuracy"],
+             100 * a["occupied_accuracy"], a["known"], r["end_err"], r["max_err"],
+             r["along"], r["across"], r["odom_err"], r["map_m"][0], r["map_m"][1],
+             r["maps_mb"], 100 * r["ideal"], r["cpu_s"], r["inc"][0], r["inc"][1],
+             r["odom_inc"][0], r["odom_inc"][1],
+             " ".join("%+.2f" % v for v in r["sides"]) or "-", r["corner"],
+             r["odom_scale"],
+             " ".join("%+.2f" % v for v in r["ideal_sides"]) or "-",
+             *r["heading_mrad"]))
+    sys.stdout.flush()
 
 if __name__ == "__main__":
     main()
