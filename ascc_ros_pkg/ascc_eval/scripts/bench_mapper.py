@@ -73,7 +73,7 @@ sys.path.insert(0, os.path.join(NAV, "src"))
 
 from ascc_common.grid import OCCUPIED  # noqa: E402
 from ascc_common.params import from_params, parameters  # noqa: E402
-from ascc_common.pose2d import compose, relative, wrap_angle  # noqa: E402
+from ascc_common.pose2d import compose, mean_yaw, relative, wrap_angle  # noqa: E402
 from ascc_eval.drive_bag import ROUTES  # noqa: E402
 from ascc_navigation import mapper as M  # noqa: E402
 from ascc_navigation import synthetic as S  # noqa: E402
@@ -244,8 +244,15 @@ def average_lineages(lineages):
     ((K, T, 3) -> (T, 3)): mean position, circular mean heading."""
     t = np.asarray(lineages, dtype=float)
     out = t.mean(axis=0)
-    out[:, 2] = np.arctan2(np.sin(t[:, :, 2]).mean(axis=0), np.cos(t[:, :, 2]).mean(axis=0))
+    out[:, 2] = [mean_yaw(t[:, i, 2]) for i in range(t.shape[1])]
     return out
+
+
+def rebuilt_map(info, poses, scans, occ_thresh):
+    """The one-particle map of ``scans`` registered at ``poses`` on the grid ``info``:
+    (occupancy grid, its geometry)."""
+    maps = rebuild_counts(lambda: ParticleMaps(1, info), np.asarray(poses), scans)
+    return maps.occupancy(0, occ_thresh), maps.info
 
 
 def average_map(world, results):
@@ -255,11 +262,10 @@ def average_map(world, results):
     if any(r["lineage"] is None for r in results):
         return None
     first = results[0]
-    poses = average_lineages([r["lineage"] for r in results])
-    maps = rebuild_counts(lambda: ParticleMaps(1, first["info"]), poses, first["scans"])
-    grid = maps.occupancy(0, first["occ_thresh"])
-    acc = map_agreement(grid, maps.info, world.truth, world.info)
-    sides = world.quality(grid, maps.info)[0] if hasattr(world, "quality") else []
+    grid, info = rebuilt_map(first["info"], average_lineages([r["lineage"] for r in results]),
+                             first["scans"], first["occ_thresh"])
+    acc = map_agreement(grid, info, world.truth, world.info)
+    sides = world.quality(grid, info)[0] if hasattr(world, "quality") else []
     return acc, sides
 
 
@@ -363,9 +369,9 @@ def run(world, params, seed, odom_kind, save=None, oracle=None, filter_seed=None
             heading.append(abs(float(wrap_angle(est[2] - traj[k, 2]))))
     est_grid, est_info = mapper.occupancy()
     acc = map_agreement(est_grid, est_info, world.truth, world.info)
-    ideal = rebuild_counts(lambda: ParticleMaps(1, est_info), np.array(true_poses), scans)
-    ideal_grid = ideal.occupancy(0, mapper.cfg.rbpf.occ_thresh)
-    ideal_acc = map_agreement(ideal_grid, ideal.info, world.truth, world.info)
+    ideal_grid, ideal_info = rebuilt_map(est_info, true_poses, scans,
+                                         mapper.cfg.rbpf.occ_thresh)
+    ideal_acc = map_agreement(ideal_grid, ideal_info, world.truth, world.info)
     final = compose(mapper.map_to_odom(), odom[k])
     sides, corner, ideal_sides = [], float("nan"), []
     if hasattr(world, "quality"):
@@ -376,7 +382,7 @@ def run(world, params, seed, odom_kind, save=None, oracle=None, filter_seed=None
             prefix = os.path.join(save, "%s_seed%d" % (world.name, seed))
             save_map(prefix + ".yaml", est_grid, est_info)
         sides, corner = world.quality(est_grid, est_info, prefix)
-        ideal_sides, _ = world.quality(ideal_grid, ideal.info)
+        ideal_sides, _ = world.quality(ideal_grid, ideal_info)
     lineage = mapper.slam.trajectory()
     inc, odom_inc = increment_errors(np.array(true_poses), lineage, np.array(odom_poses))
     return {
@@ -480,6 +486,7 @@ def print_row(r, seed):
              " ".join("%+.2f" % v for v in r["ideal_sides"]) or "-",
              *r["heading_mrad"]))
     sys.stdout.flush()
+
 
 if __name__ == "__main__":
     main()
