@@ -448,9 +448,12 @@ def main():
     for name in args.worlds.split(","):
         for seed in range(args.seed, args.seed + args.runs):
             results = []
+            world = None
             for j in range(args.filters):
                 rng = np.random.default_rng(1000 + seed)  # the same scans for every filter
-                world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
+                if world is None:
+                    world = SyntheticWorld(rng) if name == "synthetic" else SimWorld(name, rng)
+                world.rng = rng  # the world is loaded once, its scans' draws restart
                 results.append(run(world, params, seed, args.odometry,
                                    args.save if j == 0 else None, args.oracle,
                                    filter_seed=seed + 1000 * j))
