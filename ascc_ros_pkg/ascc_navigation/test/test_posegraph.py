@@ -193,6 +193,20 @@ def test_corridor_match_fixes_only_the_lateral_position_and_heading():
     assert _pose_error(graph.poses, truth).max() < 0.1
 
 
+def test_the_seen_space_is_the_union_of_the_scans_polygons():
+    """Space that two, three or four keyframes' scans all saw is seen: the polygons are
+    filled one by one (one ``cv2.fillPoly`` call on all of them fills by the even-odd rule
+    and leaves space seen by an even number of scans out: along a corridor driven in 0.25 m
+    steps, stripes of it)."""
+    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    polys = [square + [0.5 * k, 0.0] for k in range(4)]  # overlapping 1-4 deep
+    field = PG.LikelihoodField(np.array([[0.0, 0.0], [3.5, 2.0]]), 0.02, 0.5, 0.15, polys)
+    inside = np.array([[0.25 + 0.5 * k, 1.0] for k in range(7)])  # seen by 1, 2, 3, 4, 3, 2, 1
+    assert field.seen_share(np.zeros(3), inside) == 1.0
+    outside = np.array([[-0.2, 1.0], [3.7, 1.0], [1.0, 2.2], [1.0, -0.2]])
+    assert field.seen_share(np.zeros(3), outside) == 0.0
+
+
 @pytest.mark.parametrize("x", [4.3, 4.5, 4.8])
 def test_a_loop_match_scores_only_what_the_submap_saw(x):
     """A submap of keyframes driven east from x = 5 m along a corridor (a door recess at 8-9

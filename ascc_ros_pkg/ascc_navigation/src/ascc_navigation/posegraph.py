@@ -222,8 +222,10 @@ class LikelihoodField:
             polys = [np.round(((np.asarray(p, dtype=float) - origin) / self.res - 0.5) * 16.0)
                      .astype(np.int32) for p in seen if len(p) >= 3]
             mask = np.zeros((self.h, self.w), np.float32)
-            if polys:
-                cv2.fillPoly(mask, polys, 1.0, lineType=cv2.LINE_8, shift=4)
+            for poly in polys:
+                # one call per polygon: fillPoly's even-odd rule would leave the space two
+                # (or any even number of) scans saw unfilled
+                cv2.fillPoly(mask, [poly], 1.0, lineType=cv2.LINE_8, shift=4)
             self.seen = mask
 
     def seen_share(self, pose: np.ndarray, pts: np.ndarray) -> float:
