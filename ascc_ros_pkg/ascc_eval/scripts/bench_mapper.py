@@ -409,7 +409,7 @@ def run(world, params, seed, odom_kind, save=None, oracle=None, filter_seed=None
         "odom_err": math.hypot(odom[k, 0] - traj[k, 0], odom[k, 1] - traj[k, 1]),
         "length": float(np.sum(np.hypot(np.diff(traj[:, 0]), np.diff(traj[:, 1])))),
         "map_m": (est_info.width * est_info.resolution, est_info.height * est_info.resolution),
-        "maps_mb": 2.0 * est_info.width * est_info.height * mapper.cfg.rbpf.particles / 1e6,
+        "maps_mb": 2.0 * est_info.width * est_info.height * mapper.slam.maps.n / 1e6,
     }
 
 

@@ -21,6 +21,7 @@ from ascc_common.pose2d import compose, inverse, relative
 from ascc_navigation.laser import LaserMount, prepare_scan
 from ascc_navigation.posegraph import LoopClosureConfig, LoopResult, PoseGraph, rebuild_counts
 from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
+from ascc_navigation.submap_slam import SubmapConfig, SubmapSlam
 
 
 @dataclass
@@ -47,7 +48,14 @@ class MapperConfig:
                                gt=0.0)
     odom_jump_speed_mps: float = param(1.0, "[m/s] a longer step is still motion if slower "
                                        "than this (not gmapping)", ge=0.0)
+    # Not gmapping: "submap" replaces the particle filter by the particle-free front end
+    # of ascc_navigation.submap_slam (its parameters: SubmapConfig; the grid's cell, bounds
+    # and occ_thresh stay RbpfConfig's delta, x/ymin/max, occ_thresh)
+    frontend: str = param("rbpf", "rbpf (gmapping's particle filter) or submap (scan to "
+                          "submap matching, no particles; not gmapping)",
+                          choices=("rbpf", "submap"))
     rbpf: RbpfConfig = nested(RbpfConfig)
+    submap: SubmapConfig = nested(SubmapConfig)
     loop: LoopClosureConfig = nested(LoopClosureConfig)
 
 
@@ -146,7 +154,13 @@ class SlamMapper:
         self._reset_state()
 
     def _reset_state(self) -> None:
-        self.slam = RbpfSlam(self.cfg.rbpf, seed=self.seed)
+        if self.cfg.frontend == "submap":
+            r = self.cfg.rbpf
+            r.validate()
+            self.slam = SubmapSlam(self.cfg.submap, r.delta, r.occ_thresh,
+                                   (r.xmin, r.ymin, r.xmax, r.ymax), r.grow_margin)
+        else:
+            self.slam = RbpfSlam(self.cfg.rbpf, seed=self.seed)
         self.graph = PoseGraph(self.cfg.loop, hit_offset=0.5 * self.cfg.rbpf.delta)
         self.graph.heading_std_rad = max(self.cfg.rbpf.wall_axis_std_rad, 0.0)
         self.keyframe_updates: List[int] = []  # the filter update of each keyframe
