@@ -531,6 +531,15 @@ class ParticleMaps:
         return (ox + float(u.min()) * res, oy + float(v.min()) * res,
                 ox + float(u.max()) * res, oy + float(v.max()) * res)
 
+    def grow_and_register(self, poses: np.ndarray, scan: PreparedScan, pad: float,
+                          margin: float) -> bool:
+        """Grow the grid to hold the scan seen from every pose (its footprint plus ``pad``
+        [m], grown by at least ``margin`` [m]), then ``register`` it; True if it grew."""
+        xmin, ymin, xmax, ymax = self.footprint(poses, scan)
+        grown = self.ensure_contains(xmin - pad, ymin - pad, xmax + pad, ymax + pad, margin)
+        self.register(poses, scan)
+        return grown
+
     def register(self, poses: np.ndarray, scan: PreparedScan) -> None:
         """Add the scan to every particle's map (particle i at poses[i]); the grid must already
         contain the scan (``ensure_contains``)."""
@@ -970,12 +979,8 @@ class RbpfSlam:
         return True
 
     def _register(self, scan: PreparedScan) -> bool:
-        xmin, ymin, xmax, ymax = self.maps.footprint(self.poses, scan)
-        pad = 2.0 * self.cfg.delta
-        grown = self.maps.ensure_contains(xmin - pad, ymin - pad, xmax + pad, ymax + pad,
-                                          self.cfg.grow_margin)
-        self.maps.register(self.poses, scan)
-        return grown
+        return self.maps.grow_and_register(self.poses, scan, 2.0 * self.cfg.delta,
+                                           self.cfg.grow_margin)
 
     def _fields(self, pts: np.ndarray) -> _LikelihoodFields:
         u, v = self.maps._to_cells(self.poses, pts)

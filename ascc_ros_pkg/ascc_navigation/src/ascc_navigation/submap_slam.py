@@ -151,8 +151,9 @@ class SubmapSlam:
         self.updates = 0
         self.path_m = 0.0
         self.wall_reference: Optional[float] = None  # map-frame walls' direction [rad]
-        # the submap: (path [m], pose, surface points (base), seen polygon (base))
-        self._keyframes: Deque[Tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque()
+        # the submap: (path [m], surface points, seen polygon), both in the map frame (a
+        # keyframe's pose never moves; a loop closure's restart drops them)
+        self._keyframes: Deque[Tuple[float, np.ndarray, np.ndarray]] = deque()
         self._history = np.zeros((64, 3))
 
     @property
@@ -180,12 +181,13 @@ class SubmapSlam:
         self.path_m = 0.0
         stats = UpdateStats(entropy=0.0, neff=1.0)
         stats.grown = self._register(scan)
+        surface = self._surface(scan, scan.hits)
         self.wall_reference = None
         if self.cfg.wall_std_rad > 0.0:
-            wall = scan_wall_axis(self._surface(scan, scan.hits))
+            wall = scan_wall_axis(surface)
             if wall is not None:
                 self.wall_reference = self.pose[2] + wall.angle
-        self._keep(scan)
+        self._keep(scan, surface)
         self.initialized = True
         self.updates = 1
         self._record(0)
@@ -204,6 +206,7 @@ class SubmapSlam:
         rhs = np.zeros(3)
         stats = UpdateStats(neff=1.0)
         stats.odom_delta = delta.copy()
+        surface = self._surface(scan, scan.hits)
         pts = _subsample(self._surface(scan, scan.match), cfg.match_points)
         if scan.usable and pts.shape[0] >= 10 and self._keyframes:
             field = self._field()
@@ -220,7 +223,7 @@ class SubmapSlam:
                 info = info + ci
                 rhs = rhs + ci @ d
                 if self.wall_reference is not None:
-                    wall = scan_wall_axis(self._surface(scan, scan.hits))
+                    wall = scan_wall_axis(surface)
                     if wall is not None:
                         meas = guess[2] + float(wrap_right_angle(
                             self.wall_reference - wall.angle - guess[2]))
@@ -237,7 +240,7 @@ class SubmapSlam:
         stats.entropy = gaussian_entropy(np.linalg.inv(info))
         stats.grown = self._register(scan)
         if scan.usable:
-            self._keep(scan)
+            self._keep(scan, surface)
         self._record(self.updates)
         self.updates += 1
         return stats
@@ -254,11 +257,10 @@ class SubmapSlam:
         self._history[np.asarray(updates)] = np.asarray(poses, dtype=float)
 
     def restart(self, pose, maps: ParticleMaps) -> None:
-        """Continue from a map rebuilt elsewhere (the pose graph's loop closure), at
-        ``pose``; the submap's keyframes are dropped (their poses moved)."""
-        self.maps = ParticleMaps(1, maps.info)
-        self.maps.hits = maps.hits[:1].copy()
-        self.maps.visits = maps.visits[:1].copy()
+        """Continue from a map rebuilt elsewhere (the pose graph's loop closure: a fresh
+        one-particle ``maps``, taken over), at ``pose``; the submap's keyframes are dropped
+        (their poses moved)."""
+        self.maps = maps
         self.pose = np.asarray(pose, dtype=float).copy()
         self._keyframes.clear()
 
@@ -269,29 +271,25 @@ class SubmapSlam:
         return _surface_points(np.asarray(scan.origin, dtype=float),
                                np.asarray(pts, dtype=float), self.hit_offset).astype(float)
 
-    def _keep(self, scan: PreparedScan) -> None:
-        """The scan as a keyframe of the submap; keyframes beyond ``submap_m`` dropped."""
+    def _keep(self, scan: PreparedScan, surface: np.ndarray) -> None:
+        """The scan (its ``surface`` points) as a keyframe of the submap at the current
+        pose; keyframes beyond ``submap_m`` dropped."""
         behind = 3.0 * self.cfg.match_sigma_m  # the field's cap: a miss scores ~0 there
-        self._keyframes.append((self.path_m, self.pose.copy(), self._surface(scan, scan.hits),
-                                _seen_polygon(scan, behind)))
+        self._keyframes.append((self.path_m, _transform(self.pose, surface),
+                                _transform(self.pose, _seen_polygon(scan, behind))))
         while self._keyframes and self._keyframes[0][0] < self.path_m - self.cfg.submap_m:
             self._keyframes.popleft()
 
     def _field(self) -> LikelihoodField:
-        cloud = np.vstack([_transform(p, pts) for _, p, pts, _ in self._keyframes
-                           if pts.shape[0]] or [self.pose[None, :2]])
-        seen = [_transform(p, poly) for _, p, _, poly in self._keyframes if len(poly) >= 3]
+        cloud = np.vstack([pts for _, pts, _ in self._keyframes if pts.shape[0]]
+                          or [self.pose[None, :2]])
+        seen = [poly for _, _, poly in self._keyframes if len(poly) >= 3]
         return LikelihoodField(cloud, self.cfg.field_res_m, self.cfg.window_m + 1.0,
                                3.0 * self.cfg.match_sigma_m, seen)
 
     def _register(self, scan: PreparedScan) -> bool:
-        poses = self.pose[None]
-        xmin, ymin, xmax, ymax = self.maps.footprint(poses, scan)
-        pad = 2.0 * self.delta
-        grown = self.maps.ensure_contains(xmin - pad, ymin - pad, xmax + pad, ymax + pad,
-                                          self.grow_margin)
-        self.maps.register(poses, scan)
-        return grown
+        return self.maps.grow_and_register(self.pose[None], scan, 2.0 * self.delta,
+                                           self.grow_margin)
 
     def _record(self, row: int) -> None:
         if row >= self._history.shape[0]:
