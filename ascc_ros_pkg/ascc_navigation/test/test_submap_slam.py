@@ -119,3 +119,93 @@ def test_a_scan_without_returns_keeps_the_odometry_and_the_mapper_running():
     out = mapper.handle_scan(_scan_input(0.1, empty), p1, MOUNT)
     assert out.status == M.UPDATED and "odometry only" in out.reason
     assert np.allclose(mapper.robot_pose(), p1)
+
+
+def _still_start(mapper, seed, still_scans, p0=(2.0, 2.0, 0.3)):
+    """``still_scans`` noisy scans from the start pose (the odometry unchanged), then one
+    0.3 m on; returns the scans' world and the start pose."""
+    truth, tinfo = S.office_world()
+    rng = np.random.default_rng(seed)
+    p0 = np.asarray(p0, dtype=float)
+    for k in range(still_scans):
+        scan = S.simulate_scan(truth == OCCUPIED, tinfo, p0, MOUNT, SPEC, rng)
+        out = mapper.handle_scan(_scan_input(0.1 * k, scan), p0, MOUNT)
+        assert out.status == (M.STARTED if k == 0 else M.SKIPPED), out.reason
+    return truth, tinfo, rng, p0
+
+
+def _reference_mapper(frontend, scans):
+    if frontend == "submap":
+        return _mapper(submap_wall_reference_scans=scans)
+    return _mapper(frontend="rbpf", particles=5, wall_axis_std_rad=0.01,
+                   wall_axis_reference_scans=scans)
+
+
+@pytest.mark.parametrize("frontend", ["submap", "rbpf"])
+def test_the_walls_reference_is_the_mean_of_the_scans_before_the_robot_moves(frontend):
+    """One scan's walls' direction is noisy: over six seeds (the same start pose) the
+    first scan's alone scatters; the mean of the scans taken before the robot first moves
+    scatters far less (what stays is the synthetic ray caster's own bias of the walls'
+    direction, the same in every scan). The robot's first motion ends the averaging. The
+    same for the filter's wall-axis prior (``wall_axis_reference_scans``)."""
+    errors = {1: [], 30: []}
+    for cap in errors:
+        for seed in range(6):
+            mapper = _reference_mapper(frontend, cap)
+            truth, tinfo, rng, p0 = _still_start(mapper, seed, 40)
+            slam = mapper.slam
+            assert slam.reference_scans == cap
+            errors[cap].append(float(F.wrap_right_angle(slam.wall_reference)))
+    assert np.std(errors[30]) < 0.5 * np.std(errors[1]), errors
+    # once it has moved, scans from the start pose are not averaged any more
+    mapper = _reference_mapper(frontend, 30)
+    truth, tinfo, rng, p0 = _still_start(mapper, 0, 5)
+    p1 = p0 + [0.3, 0.0, 0.0]
+    scan = S.simulate_scan(truth == OCCUPIED, tinfo, p1, MOUNT, SPEC, rng)
+    assert mapper.handle_scan(_scan_input(1.0, scan), p1, MOUNT).status == M.UPDATED
+    reference = mapper.slam.wall_reference
+    for k in range(3):
+        scan = S.simulate_scan(truth == OCCUPIED, tinfo, p1, MOUNT, SPEC, rng)
+        assert mapper.handle_scan(_scan_input(1.1 + 0.1 * k, scan), p1,
+                                  MOUNT).status == M.SKIPPED
+    assert mapper.slam.reference_scans == 5
+    assert mapper.slam.wall_reference == reference
+
+
+def test_a_match_far_outside_the_prediction_covariance_is_left_out():
+    """The odometry says the robot moved 0.3 m along x and claims 15 mm of uncertainty;
+    the scan says it also moved 0.15 m sideways. The match is far outside
+    the prediction's covariance: left out (``submap_match_gate``), the pose follows the
+    odometry; with the gate off the match moves the pose towards the scans."""
+    tight = {"submap_odom_along_m": 0.015, "submap_odom_along_per_m": 0.0,
+             "submap_odom_across_m": 0.015, "submap_odom_across_per_m": 0.0}
+    poses = {}
+    for gate in (16.27, 0.0):
+        mapper = _mapper(submap_match_gate=gate, **tight)
+        truth, tinfo, rng, p0 = _still_start(mapper, 1, 1, p0=(2.0, 2.0, 0.0))
+        odom = p0 + [0.3, 0.0, 0.0]
+        scan = S.simulate_scan(truth == OCCUPIED, tinfo, p0 + [0.3, 0.15, 0.0], MOUNT, SPEC,
+                               rng)
+        assert mapper.handle_scan(_scan_input(1.0, scan), odom, MOUNT).status == M.UPDATED
+        poses[gate] = (mapper.robot_pose(), mapper.slam.gated_matches)
+    pose, gated = poses[16.27]
+    assert gated == 1
+    assert abs(pose[1] - 2.0) < 0.01, pose
+    pose, gated = poses[0.0]
+    assert gated == 0
+    assert pose[1] - 2.0 > 0.04, pose
+
+
+def test_the_chord_takes_the_odometrys_distance_along_the_fused_turn():
+    heading = 0.4
+    # an arc of 0.3 m turning 0.1 rad: its chord leaves at half the turn
+    arc = np.array([0.3 * math.cos(0.05), 0.3 * math.sin(0.05), 0.1])
+    same = F.chord(arc, heading, 0.1)
+    assert np.allclose(same, P.compose((0.0, 0.0, heading), arc)[:2])
+    # the odometry turned 0.1 rad, the fused estimate not at all: straight on, same length
+    straight = F.chord(arc, heading, 0.0)
+    assert np.allclose(straight, 0.3 * np.array([math.cos(heading), math.sin(heading)]))
+    # backwards: still along the heading's line, behind
+    back = F.chord(np.array([-0.2, 0.0, 0.0]), heading, 0.0)
+    assert np.allclose(back, -0.2 * np.array([math.cos(heading), math.sin(heading)]))
+    assert np.allclose(F.chord(np.array([0.0, 0.0, 0.5]), heading, 0.3), 0.0)

@@ -23,6 +23,8 @@ from ascc_navigation.posegraph import LoopClosureConfig, LoopResult, PoseGraph, 
 from ascc_navigation.rbpf import RbpfConfig, RbpfSlam, UpdateStats
 from ascc_navigation.submap_slam import SubmapConfig, SubmapSlam
 
+STILL = 1e-9  # [m], [rad]: odometry this close to the start's has not moved (rounding)
+
 
 @dataclass
 class MapperConfig:
@@ -227,6 +229,11 @@ class SlamMapper:
         if self.scan_count % self.cfg.throttle_scans:
             return Outcome(SKIPPED, "throttled")
         if not self._due(scan.stamp):
+            if (self.travelled < STILL and self.turned < STILL and self.slam.updates == 1
+                    and self.slam.wants_still_scans()):
+                # the odometry has not changed since the start (but for rounding): the
+                # front end may average what it measures there
+                self.slam.observe_still(self._prepare(scan, mount))
             return Outcome(SKIPPED, "not moved enough")
         prepared = self._prepare(scan, mount)
         stats = self.slam.update(relative(self.update_odom, odom_pose), prepared)

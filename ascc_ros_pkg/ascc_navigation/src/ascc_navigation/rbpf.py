@@ -54,7 +54,7 @@ from ascc_common.pose2d import compose, mean_yaw, wrap_angle
 from ascc_navigation.climb import field_image, hill_climb
 from ascc_navigation.grid import count_table, occupancy_from_counts
 from ascc_navigation.laser import PreparedScan, seen_before
-from ascc_navigation.wall_axes import WallAxis, scan_wall_axis, wrap_right_angle
+from ascc_navigation.wall_axes import WallAxis, mean_direction, scan_wall_axis, wrap_right_angle
 
 COUNT_MAX = 255  # uint8 counters; a cell at this count is halved before the next increment
 FILL_SHIFT = 8  # fractional bits for cv2.fillPoly vertices (1/256 cell)
@@ -228,6 +228,13 @@ class RbpfConfig:
     wall_axis_pull_std_rad: float = param(-1.0, "[rad] with wall_axis_std_rad on: std of the "
                                           "matcher's pull of each heading to the one the "
                                           "scan's walls give; <0 off (not gmapping)")
+    # Not in gmapping: one scan's walls' direction is off by about a milliradian, and the
+    # reference's error turns the whole map (0.1 m at the far end of a 100 m corridor); the
+    # scans a robot takes while it stands at the start (the odometry unchanged) average it.
+    wall_axis_reference_scans: int = param(1, "the wall-axis prior's reference: the mean "
+                                           "direction of this many scans at most, the first "
+                                           "and those before the robot first moves",
+                                           ge=1)
     wall_axis_gate_rad: float = param(0.03, "[rad] scans whose walls are further than this "
                                       "from the first scan's directions are left out of "
                                       "the wall-axis prior")
@@ -744,6 +751,7 @@ class RbpfSlam:
         # wall-axis prior: the map-frame direction of the walls (modulo a right angle), from
         # the first scan that shows straight walls, placed at the best particle's pose
         self.wall_reference: Optional[float] = None
+        self.reference_scans = 0  # scans averaged into wall_reference
 
     @property
     def weights(self) -> np.ndarray:
@@ -766,6 +774,7 @@ class RbpfSlam:
         stats.grown = self._register(scan)
         self._previous = scan
         self.wall_reference = None
+        self.reference_scans = 0
         if self.cfg.wall_axis_std_rad > 0.0:  # the reference, if this scan shows walls
             stats.wall_axis = _angle(scan_wall_axis(scan.hits))
             self._weigh_wall_axis(stats.wall_axis, np.zeros(self.cfg.particles))
@@ -809,6 +818,25 @@ class RbpfSlam:
     def new_maps(self) -> ParticleMaps:
         """An empty one-particle map on the current grid geometry."""
         return ParticleMaps(1, self.maps.info)
+
+    def wants_still_scans(self) -> bool:
+        """Whether ``observe_still`` would use another scan from the start pose."""
+        return (self.updates == 1 and self.cfg.wall_axis_std_rad > 0.0
+                and self.wall_reference is not None
+                and self.reference_scans < self.cfg.wall_axis_reference_scans)
+
+    def observe_still(self, scan: PreparedScan) -> None:
+        """A scan taken at the start pose before the robot first moved: its walls'
+        direction joins the wall-axis prior's reference (a mean of up to
+        ``wall_axis_reference_scans``; every particle is still at the start pose)."""
+        if not self.wants_still_scans():
+            return
+        axis = _angle(scan_wall_axis(scan.hits))
+        if axis is None:
+            return
+        self.wall_reference = float(wrap_right_angle(mean_direction(
+            self.wall_reference, self.reference_scans, float(self.poses[self.best, 2]) + axis)))
+        self.reference_scans += 1
 
     def update(self, odom_delta, scan: PreparedScan) -> UpdateStats:
         """One filter step: the robot moved by ``odom_delta`` (dx, dy, dtheta in the previous
@@ -969,7 +997,8 @@ class RbpfSlam:
             return False
         if self.wall_reference is None:  # the first scan with walls: after matching, the
             self.wall_reference = float(wrap_right_angle(self.poses[self.best, 2] + axis))
-            return False                 # best particle's heading
+            self.reference_scans = 1     # best particle's heading
+            return False
         err = wrap_right_angle(self.poses[:, 2] + axis - self.wall_reference)
         gate = self.cfg.wall_axis_gate_rad
         if abs(float(np.median(err))) > gate:

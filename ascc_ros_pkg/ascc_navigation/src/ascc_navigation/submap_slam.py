@@ -8,7 +8,8 @@ Per update (``SlamMapper`` decides when, as for the filter: ``linearUpdate``,
 
 * **prediction**: the last pose composed with the odometry increment; its covariance from
   the increment (``odom_*`` stds: along and across the motion, heading), the last pose
-  taken as known;
+  taken as known; after the fusion the increment's translation is re-aimed along the chord
+  of the fused turn (``odom_chord``, ``chord``);
 * **scan-to-submap match**: the scan's end points (on the surface, ``hit_offset`` moved back
   along their beams) against the end points of the keyframes of the last ``submap_m`` of
   path at their estimated poses: ``posegraph.correlative_match`` (likelihood field at
@@ -17,10 +18,15 @@ Per update (``SlamMapper`` decides when, as for the filter: ``linearUpdate``,
   covariance (along a featureless corridor large, so the prediction holds the position
   there), scaled by ``match_cov_scale`` (one scan's beams are not independent);
 * **wall heading**: the walls' direction of this scan (``wall_axes.scan_wall_axis`` of the
-  surface points), modulo a right angle, against the first scan's, as a heading measurement
-  of std ``wall_std_rad`` where it lies within ``wall_gate_rad`` of the match (a world whose
-  walls are not at right angles just does not use it);
-* the three fused (information form); a match scoring under ``min_score`` is not used.
+  surface points), modulo a right angle, against the reference direction (the mean of the
+  first scan's and of up to ``wall_reference_scans`` taken before the robot first moves:
+  ``observe_still``), as a heading measurement of std ``wall_std_rad`` where it lies within
+  ``wall_gate_rad`` of the match (a world whose walls are not at right angles just does not
+  use it);
+* the three fused (information form); a match scoring under ``min_score`` is not used, nor
+  one whose offset from the prediction is an outlier under both covariances (squared
+  Mahalanobis distance above ``match_gate``: a match at its window's edge can be
+  confidently wrong).
 
 The map is the one-particle occupancy grid (``rbpf.ParticleMaps``) of the scans at their
 fused poses. The poses never move afterwards: no smoothing and no loop closure of its own
@@ -38,7 +44,8 @@ Limit, and why it is not the default: the chain of scan-to-submap matches does n
 heading by itself. Without the walls' measurement it drifts by about 8 mrad in 5 m even
 with exact odometry; on the held-out ``annex`` world (a side at 45 degrees, another 3.6
 degrees off the axes, where the measurement is gated out) the heading drifts 20-60 mrad
-and the maps break. Experimental; online (five corridor runs) not better than the filter.
+and the maps break. Experimental; online (the latest five corridor runs, 96.3 %) no better
+than the filter, its sides short.
 """
 
 from __future__ import annotations
@@ -63,7 +70,7 @@ from ascc_navigation.posegraph import (
     correlative_match,
 )
 from ascc_navigation.rbpf import ParticleMaps, UpdateStats
-from ascc_navigation.wall_axes import scan_wall_axis, wrap_right_angle
+from ascc_navigation.wall_axes import mean_direction, scan_wall_axis, wrap_right_angle
 
 
 @dataclass
@@ -85,12 +92,24 @@ class SubmapConfig:
                                  "submap_match_sigma_m", gt=0.0)
     match_points: int = param(400, "end points matched (evenly spread)",
                               "submap_match_points", ge=10)
-    min_score: float = param(0.3, "a match scoring less (0..1) is not used",
+    min_score: float = param(0.5, "a match scoring less (0..1) is not used",
                              "submap_min_score", ge=0.0)
     match_cov_scale: float = param(10.0, "the match's covariance multiplied by this",
                                    "submap_match_cov_scale", gt=0.0)
+    odom_chord: bool = param(True, "the odometry's translation taken along the chord of the "
+                             "fused turn (its distance, not its sideways part)",
+                             "submap_odom_chord")
+    match_gate: float = param(16.27, "a match whose offset from the prediction has a squared "
+                              "Mahalanobis distance above this (under the prediction's and "
+                              "the scaled match's covariances; chi-square, 3 dof: 16.27 is "
+                              "its 99.9 % point) is not used; <= 0: off",
+                              "submap_match_gate")
     wall_std_rad: float = param(0.002, "[rad] std of the walls' heading measurement; "
                                 "<=0: off", "submap_wall_std_rad")
+    wall_reference_scans: int = param(50, "the walls' reference direction: the mean of this "
+                                      "many scans at most, taken before the robot first "
+                                      "moves (1: the first scan's alone)",
+                                      "submap_wall_reference_scans", ge=1)
     wall_gate_rad: float = param(0.03, "[rad] the walls' heading is used within this of "
                                  "the match's", "submap_wall_gate_rad", gt=0.0)
     odom_along_m: float = param(0.002, "[m] odometry std along the motion, per update",
@@ -125,6 +144,21 @@ def odometry_covariance(delta: np.ndarray, heading: float, cfg: SubmapConfig) ->
     return rot @ np.diag([along * along, across * across, turn * turn]) @ rot.T
 
 
+def chord(delta: np.ndarray, heading: float, turn: float) -> np.ndarray:
+    """The map-frame translation of an odometry increment ``delta`` (dx, dy, dtheta in the
+    previous pose's frame) from a pose at ``heading`` [rad], its direction turned by half
+    of ``turn`` [rad] instead of half of the odometry's own dtheta: a wheeled base moves
+    along the chord of its arc, so an increment's sideways part follows from its turn, and
+    where the odometry's turn is wrong (the Create 1's whole-degree heading) so is that
+    part. The distance stays the odometry's."""
+    dx, dy, dth = float(delta[0]), float(delta[1]), float(delta[2])
+    length = math.hypot(dx, dy)
+    if length < 1e-9:
+        return np.zeros(2)
+    direction = heading + math.atan2(dy, dx) + 0.5 * (turn - dth)
+    return length * np.array([math.cos(direction), math.sin(direction)])
+
+
 def gaussian_entropy(cov: np.ndarray) -> float:
     """Differential entropy [nats] of a Gaussian with covariance ``cov``."""
     k = cov.shape[0]
@@ -151,6 +185,8 @@ class SubmapSlam:
         self.updates = 0
         self.path_m = 0.0
         self.wall_reference: Optional[float] = None  # map-frame walls' direction [rad]
+        self.gated_matches = 0  # matches left out by match_gate since the start
+        self.reference_scans = 0  # scans averaged into wall_reference
         # the submap: (path [m], surface points, seen polygon), both in the map frame (a
         # keyframe's pose never moves; a loop closure's restart drops them)
         self._keyframes: Deque[Tuple[float, np.ndarray, np.ndarray]] = deque()
@@ -179,19 +215,42 @@ class SubmapSlam:
         self.maps = ParticleMaps(1, self.maps.info)
         self._keyframes.clear()
         self.path_m = 0.0
+        self.gated_matches = 0
         stats = UpdateStats(entropy=0.0, neff=1.0)
         stats.grown = self._register(scan)
         surface = self._surface(scan, scan.hits)
         self.wall_reference = None
-        if self.cfg.wall_std_rad > 0.0:
-            wall = scan_wall_axis(surface)
-            if wall is not None:
-                self.wall_reference = self.pose[2] + wall.angle
+        self.reference_scans = 0
+        self._average_reference(surface)
         self._keep(scan, surface)
         self.initialized = True
         self.updates = 1
         self._record(0)
         return stats
+
+    def wants_still_scans(self) -> bool:
+        """Whether ``observe_still`` would use another scan from the start pose."""
+        return (self.updates == 1 and self.cfg.wall_std_rad > 0.0
+                and self.reference_scans < self.cfg.wall_reference_scans)
+
+    def observe_still(self, scan: PreparedScan) -> None:
+        """Another scan taken at the start pose (the robot has not moved since ``start``):
+        its walls' direction joins the reference's mean, up to ``wall_reference_scans``.
+        One scan's direction is off by about a milliradian, and the reference's error turns
+        the whole map (0.1 m at the far end of a 100 m corridor); the scans a robot takes
+        while it stands at the start average it out."""
+        if self.wants_still_scans():
+            self._average_reference(self._surface(scan, scan.hits))
+
+    def _average_reference(self, surface: np.ndarray) -> None:
+        if self.cfg.wall_std_rad <= 0.0:
+            return
+        wall = scan_wall_axis(surface)
+        if wall is None:
+            return
+        self.wall_reference = mean_direction(self.wall_reference, self.reference_scans,
+                                             float(self.pose[2]) + wall.angle)
+        self.reference_scans += 1
 
     def update(self, odom_delta, scan: PreparedScan) -> UpdateStats:
         """The robot moved by ``odom_delta`` (dx, dy, dtheta in the previous robot frame,
@@ -203,6 +262,7 @@ class SubmapSlam:
         guess = np.asarray(compose(self.pose, delta), dtype=float)
         q = odometry_covariance(delta, float(self.pose[2]), cfg)
         info = np.linalg.inv(q)
+        q_info = info.copy()
         rhs = np.zeros(3)
         stats = UpdateStats(neff=1.0)
         stats.odom_delta = delta.copy()
@@ -215,11 +275,16 @@ class SubmapSlam:
                 cfg.match_sigma_m, seen_floor_share=0.1)
             stats.mean_score = float(score)
             stats.beams = int(pts.shape[0])
-            if score >= cfg.min_score:
+            d = best - guess
+            d[2] = wrap_angle(d[2])
+            scaled = cov * cfg.match_cov_scale
+            gated = cfg.match_gate > 0.0 and float(
+                d @ np.linalg.solve(q + scaled, d)) > cfg.match_gate
+            if gated:
+                self.gated_matches += 1
+            if score >= cfg.min_score and not gated:
                 stats.matched = 1
-                ci = np.linalg.inv(cov * cfg.match_cov_scale)
-                d = best - guess
-                d[2] = wrap_angle(d[2])
+                ci = np.linalg.inv(scaled)
                 info = info + ci
                 rhs = rhs + ci @ d
                 if self.wall_reference is not None:
@@ -234,6 +299,12 @@ class SubmapSlam:
                             stats.wall_axis_used = True
         step = np.linalg.solve(info, rhs)
         new = guess + step
+        if cfg.odom_chord:
+            # the prediction's translation re-aimed by the fused turn instead of the
+            # odometry's (the mean is linear in the prediction: shift it and add)
+            moved = chord(delta, float(self.pose[2]), float(step[2]) + float(delta[2]))
+            new = new + np.linalg.solve(info, q_info @ np.array(
+                [self.pose[0] + moved[0] - guess[0], self.pose[1] + moved[1] - guess[1], 0.0]))
         new[2] = wrap_angle(new[2])
         self.path_m += math.hypot(float(delta[0]), float(delta[1]))
         self.pose = new

@@ -35,6 +35,15 @@ def wrap_right_angle(a):
     return (np.asarray(a, dtype=float) + RIGHT_ANGLE / 2.0) % RIGHT_ANGLE - RIGHT_ANGLE / 2.0
 
 
+def mean_direction(reference: Optional[float], count: int, direction: float) -> float:
+    """The mean, modulo a right angle, of ``count`` directions [rad] whose mean is
+    ``reference`` (None: no direction yet) and one more, ``direction``; near
+    ``reference`` (a running mean of the walls' directions of scans from one pose)."""
+    if reference is None or count <= 0:
+        return float(direction)
+    return float(reference + wrap_right_angle(direction - reference) / (count + 1))
+
+
 @dataclass
 class WallAxis:
     """A scan's wall direction: ``angle`` [rad, in [-pi/4, pi/4)] of the walls (modulo a right
