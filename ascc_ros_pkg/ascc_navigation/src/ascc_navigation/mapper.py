@@ -229,7 +229,7 @@ class SlamMapper:
         if self.scan_count % self.cfg.throttle_scans:
             return Outcome(SKIPPED, "throttled")
         if not self._due(scan.stamp):
-            if (self.travelled < STILL and self.turned < STILL and self.slam.updates == 1
+            if (self.travelled < STILL and self.turned < STILL
                     and self.slam.wants_still_scans()):
                 # the odometry has not changed since the start (but for rounding): the
                 # front end may average what it measures there

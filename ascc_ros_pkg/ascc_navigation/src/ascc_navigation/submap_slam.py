@@ -185,7 +185,7 @@ class SubmapSlam:
         self.updates = 0
         self.path_m = 0.0
         self.wall_reference: Optional[float] = None  # map-frame walls' direction [rad]
-        self.gated_matches = 0  # matches left out by match_gate since the start
+        self.gated_matches = 0  # matches scoring min_score or more but left out by match_gate
         self.reference_scans = 0  # scans averaged into wall_reference
         # the submap: (path [m], surface points, seen polygon), both in the map frame (a
         # keyframe's pose never moves; a loop closure's restart drops them)
@@ -278,11 +278,11 @@ class SubmapSlam:
             d = best - guess
             d[2] = wrap_angle(d[2])
             scaled = cov * cfg.match_cov_scale
-            gated = cfg.match_gate > 0.0 and float(
+            gated = score >= cfg.min_score and cfg.match_gate > 0.0 and float(
                 d @ np.linalg.solve(q + scaled, d)) > cfg.match_gate
             if gated:
                 self.gated_matches += 1
-            if score >= cfg.min_score and not gated:
+            elif score >= cfg.min_score:
                 stats.matched = 1
                 ci = np.linalg.inv(scaled)
                 info = info + ci
