@@ -74,10 +74,12 @@ def calibrate(seed, out, port, timeout_s=600):
         return path, float(yaml.safe_load(f)["odom_linear_scale_correction"])
 
 
-def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s, calibrated=False):
+def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s, calibrated=False,
+            frontend=""):
     run_dir = os.path.join(out, "%s_%s_seed%d" % (world, strategy, seed))
     launch_args = {"world": world, "strategy": strategy, "seed": seed,
-                   "real_time_factor": rtf, "output_dir": run_dir, "max_time_s": max_time_s}
+                   "real_time_factor": rtf, "output_dir": run_dir, "max_time_s": max_time_s,
+                   "slam_frontend": frontend}
     factor = None
     if calibrated:
         path, factor = calibrate(seed, out, port)
@@ -95,7 +97,7 @@ def run_one(world, strategy, seed, rtf, out, port, timeout_s, max_time_s, calibr
         s = json.load(f)
     final = final_map(run_dir)
     return {"world": world, "strategy": strategy, "seed": seed, "wall_s": round(wall, 1),
-            "odom_scale_correction": factor,
+            "odom_scale_correction": factor, "frontend": frontend or "config",
             "coverage": s.get("final_coverage"), "path_m": s.get("path_m"),
             "time_s": s.get("time_s"), "bumps": s.get("bumps"),
             "end": s.get("end_reason"), "map_ok": map_check(final, world),
@@ -350,6 +352,9 @@ def main(argv=None):
                          "OUT/calibration_seed<n>.yaml) and explore with the driver "
                          "corrected, as a lab runs a calibrated robot; default: uncalibrated"
                          % CALIBRATION_RTF)
+    ap.add_argument("--frontend", default="", choices=["", "rbpf", "submap"],
+                    help="the mapper stand-in's front end (its launch argument "
+                         "slam_frontend); default: its config's (rbpf)")
     ap.add_argument("--report-only", action="store_true",
                     help="no runs: print the table of OUT/results.json and redraw the plots")
     args = ap.parse_args(argv)
@@ -376,7 +381,7 @@ def main(argv=None):
                 print("[%d/%d] %s %s seed %d ..." % (i, n, world, strategy, seed), flush=True)
                 rtf = args.rtf or DEFAULT_RTF.get(world, "4")
                 r = run_one(world, strategy, seed, rtf, args.out, args.port,
-                            args.timeout_s, args.max_time_s, args.calibrate)
+                            args.timeout_s, args.max_time_s, args.calibrate, args.frontend)
                 r["rtf"] = float(rtf)
                 results = [o for o in results if (o["world"], o["strategy"], o["seed"])
                            != (world, strategy, seed)] + [r]
