@@ -197,8 +197,8 @@ class SubmapSlam:
         self.initialized = False
         self.updates = 0
         self.path_m = 0.0
-        self.wall_reference: Optional[float] = None  # map-frame walls' direction [rad]
-        # the start's reference first, then the directions learned (wall_learn_scans)
+        # map-frame walls' directions [rad]: the start's reference first, then the
+        # directions learned (wall_learn_scans)
         self.wall_references: List[float] = []
         self._learning: Optional[Tuple[float, int]] = None  # (mean direction, scans)
         self.gated_matches = 0  # matches scoring min_score or more but left out by match_gate
@@ -207,6 +207,11 @@ class SubmapSlam:
         # keyframe's pose never moves; a loop closure's restart drops them)
         self._keyframes: Deque[Tuple[float, np.ndarray, np.ndarray]] = deque()
         self._history = np.zeros((64, 3))
+
+    @property
+    def wall_reference(self) -> Optional[float]:
+        """The start's walls' direction in the map frame [rad], None before one is seen."""
+        return self.wall_references[0] if self.wall_references else None
 
     @property
     def best_pose(self) -> np.ndarray:
@@ -235,7 +240,6 @@ class SubmapSlam:
         stats = UpdateStats(entropy=0.0, neff=1.0)
         stats.grown = self._register(scan)
         surface = self._surface(scan, scan.hits)
-        self.wall_reference = None
         self.wall_references = []
         self._learning = None
         self.reference_scans = 0
@@ -266,9 +270,8 @@ class SubmapSlam:
         wall = scan_wall_axis(surface)
         if wall is None:
             return
-        self.wall_reference = mean_direction(self.wall_reference, self.reference_scans,
-                                             float(self.pose[2]) + wall.angle)
-        self.wall_references = [self.wall_reference]
+        self.wall_references = [mean_direction(self.wall_reference, self.reference_scans,
+                                               float(self.pose[2]) + wall.angle)]
         self.reference_scans += 1
 
     def update(self, odom_delta, scan: PreparedScan) -> UpdateStats:
